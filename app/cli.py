@@ -1,0 +1,153 @@
+"""Command line: ``calf-nurbs fit | export | serve | design``.
+
+Exit codes: 0 success, 2 bad usage, 3 the scan/record cannot be processed (the reason
+is printed to stderr as JSON ``{"error": reason, "detail": ...}``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from app.geometry.errors import FitFailure
+
+
+def _fail(exc: FitFailure) -> int:
+    print(json.dumps({"error": exc.reason.value, "detail": exc.detail}), file=sys.stderr)
+    return 3
+
+
+def fit_summary(record_dict: dict) -> dict:
+    """The short JSON a user sees after a fit."""
+    fit = record_dict["fit"]
+    return {
+        "side": record_dict["side"],
+        "landmarks": record_dict["landmarks"],
+        "error_index": fit["error_index"],
+        "error_index_exact": fit["error_index_exact"],
+        "error_index_diameter": fit["error_index_diameter"],
+        "max_error_mm": fit["max_error_mm"],
+        "points_per_layer": fit["points_per_layer"],
+        "seconds": fit["seconds"],
+    }
+
+
+def _cmd_fit(args: argparse.Namespace) -> int:
+    from app.geometry.fit import FitOptions, fit_scan
+    from app.geometry.record import record_from_fit
+    from app.geometry.scan_io import load_scan
+
+    started = time.perf_counter()
+    try:
+        scan = load_scan(args.scan, units=args.units)
+        options = FitOptions(
+            side=args.side,
+            points_per_layer=args.points,
+            n_sections=args.sections,
+            section_spacing_mm=args.spacing,
+            mode=args.mode,
+        )
+        result = fit_scan(scan, options)
+    except FitFailure as exc:
+        return _fail(exc)
+    record = record_from_fit(result, scan.source_format, scan.units, time.perf_counter() - started).to_dict()
+    if args.output:
+        Path(args.output).write_text(json.dumps(record))
+    print(json.dumps(fit_summary(record), indent=2))
+    return 0
+
+
+def _load_record(path: str):
+    from app.geometry.record import CalfRecord
+
+    try:
+        return CalfRecord.from_dict(json.loads(Path(path).read_text()))
+    except (OSError, json.JSONDecodeError) as exc:
+        from app.geometry.errors import FailureReason
+
+        raise FitFailure(FailureReason.INVALID_RECORD, f"cannot read record {path}: {exc}") from exc
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from app.geometry.exchange import export_mesh, surface_mesh
+
+    try:
+        record = _load_record(args.record)
+    except FitFailure as exc:
+        return _fail(exc)
+    mesh = surface_mesh(record.surface, record.frame, n_u=args.around, n_v=args.along)
+    Path(args.output).write_bytes(export_mesh(mesh, args.format))
+    print(json.dumps({"written": args.output, "format": args.format, "faces": int(len(mesh.faces))}))
+    return 0
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from app.db.migrate import upgrade_to_head
+    from app.settings import get_settings
+
+    upgrade_to_head(get_settings().database_url)
+    uvicorn.run("app.main:app", host=args.host, port=args.port, workers=1)
+    return 0
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from app.services.design_cli import run_design_cli
+
+    try:
+        record = _load_record(args.record)
+        return run_design_cli(record, args)
+    except FitFailure as exc:
+        return _fail(exc)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="calf-nurbs", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    fit = sub.add_parser("fit", help="fit the NURBS calf model to a scan")
+    fit.add_argument("scan")
+    fit.add_argument("--side", choices=["left", "right"])
+    fit.add_argument("--units", choices=["mm", "cm", "m"])
+    fit.add_argument("--points", type=int, default=15, help="feature points per layer (paper: 8 or 15)")
+    fit.add_argument("--sections", type=int, default=200, help="resampled sections between B and D")
+    fit.add_argument("--spacing", type=float, help="section spacing in mm (overrides --sections)")
+    fit.add_argument("--mode", choices=["paper", "paper_stacked"], default="paper")
+    fit.add_argument("-o", "--output", help="write the record JSON here")
+    fit.set_defaults(func=_cmd_fit)
+
+    export = sub.add_parser("export", help="write a record's surface as STL/GLB/glTF in scan coordinates")
+    export.add_argument("record")
+    export.add_argument("--format", choices=["stl", "glb", "gltf"], default="stl")
+    export.add_argument("--around", type=int, default=144, help="samples around the leg")
+    export.add_argument("--along", type=int, default=100, help="samples along the leg")
+    export.add_argument("-o", "--output", required=True)
+    export.set_defaults(func=_cmd_export)
+
+    serve = sub.add_parser("serve", help="migrate the database, then serve the HTTP API")
+    serve.add_argument("--host", default="127.0.0.1")
+    serve.add_argument("--port", type=int, default=8000)
+    serve.set_defaults(func=_cmd_serve)
+
+    design = sub.add_parser("design", help="design a graduated compression stocking from a record")
+    design.add_argument("record")
+    design.add_argument("--class", dest="compression_class", default="II")
+    design.add_argument("--standard", default="RAL", choices=["RAL", "BS", "AFNOR"])
+    design.add_argument("--stiffness", type=float, help="fabric stiffness K, N/cm per unit strain")
+    design.add_argument("--json", action="store_true")
+    design.set_defaults(func=_cmd_design)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,189 @@
+"""Leg selection, PCA orientation and the calf frame (paper section 2.1).
+
+Calf frame (mm): origin on the calf axis at the ankle height B; z along the leg towards
+the knee; y anterior; x = y cross z (right-handed), which points to the subject's right.
+:class:`CalfFrame` records the rigid transform from the scan's millimetres and the
+4x4 matrix back to the scan's own coordinates and units.
+
+Whole bodies (longer than :data:`BODY_MIN_LENGTH_MM`): the feet end is the end whose
+slab splits into two blobs; both legs are cut below 40% of the body length (hands hang
+higher than that: ANSUR/README fingertip heights >= 43%) and separated by 2-means on
+the shins; left and right follow from the anterior direction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+from sklearn.cluster import KMeans
+
+from app.geometry.errors import FailureReason, FitFailure
+
+BODY_MIN_LENGTH_MM = 1300.0
+LEG_REGION_FRACTION = 0.40
+
+
+@dataclass(frozen=True)
+class CalfFrame:
+    """Rigid placement of the calf frame in the scan.
+
+    Attributes
+    ----------
+    rotation : (3, 3) float64
+        Rows are the calf axes x, y (anterior), z (up the leg) in scan-mm coordinates.
+    origin_mm : (3,) float64
+        Calf-frame origin in scan-mm coordinates.
+    mm_per_unit : float
+        Millimetres per scan unit (1, 10 or 1000).
+    anterior_cue : str
+        ``"foot"`` or ``"calf_bulge"``: what told front from back.
+    """
+
+    rotation: np.ndarray
+    origin_mm: np.ndarray
+    mm_per_unit: float
+    anterior_cue: str
+
+    def to_calf(self, points_mm: np.ndarray) -> np.ndarray:
+        """(n, 3) scan-mm points -> (n, 3) calf-frame mm."""
+        return (points_mm - self.origin_mm) @ self.rotation.T
+
+    def matrix(self) -> np.ndarray:
+        """(4, 4) homogeneous matrix: calf-frame mm -> scan coordinates in scan units."""
+        m = np.eye(4)
+        m[:3, :3] = self.rotation.T / self.mm_per_unit
+        m[:3, 3] = self.origin_mm / self.mm_per_unit
+        return m
+
+
+def principal_axis(points: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
+    """First principal component (PCA) of (n, 3) points; returns a unit (3,) vector."""
+    if weights is None:
+        centred = points - points.mean(axis=0)
+        cov = centred.T @ centred
+    else:
+        w = weights / weights.sum()
+        centred = points - w @ points
+        cov = (centred * w[:, None]).T @ centred
+    _, vectors = np.linalg.eigh(cov)
+    return vectors[:, -1]
+
+
+def perpendicular_basis(axis: np.ndarray, hint: np.ndarray | None = None) -> np.ndarray:
+    """(3, 3) rotation whose rows x, y, z are right-handed with z = axis.
+
+    ``hint`` (optional) is projected to give y.
+    """
+    z = axis / np.linalg.norm(axis)
+    if hint is None or np.linalg.norm(hint - (hint @ z) * z) < 1e-9:
+        hint = np.eye(3)[np.argmin(np.abs(z))]
+    y = hint - (hint @ z) * z
+    y /= np.linalg.norm(y)
+    x = np.cross(y, z)
+    return np.stack([x, y, z])
+
+
+def _slab_blob_count(points_2d: np.ndarray, pixel_mm: float = 10.0) -> int:
+    """Number of separate blobs of (n, 2) points on a coarse occupancy grid."""
+    if len(points_2d) < 10:
+        return 0
+    cells = np.floor((points_2d - points_2d.min(axis=0)) / pixel_mm).astype(np.int64)
+    grid = np.zeros(cells.max(axis=0) + 3, dtype=bool)
+    grid[cells[:, 0] + 1, cells[:, 1] + 1] = True
+    grid = ndimage.binary_closing(grid, iterations=1)
+    labels, count = ndimage.label(grid)
+    sizes = np.bincount(labels.ravel())[1:]
+    return int((sizes >= max(3, 0.05 * sizes.max())).sum())
+
+
+@dataclass(frozen=True)
+class LegCut:
+    """The vertices of one leg cut out of a body: ``point_index`` (n,), ``up`` (3,)."""
+
+    point_index: np.ndarray
+    up: np.ndarray
+
+
+def split_body_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut]:
+    """Cut the two legs out of a whole-body scan (see module docstring).
+
+    points_mm (n, 3).  Returns the two legs in arbitrary order, each with the unit
+    ``up`` vector (feet -> head).  Raises FitFailure SIDE_NOT_FOUND when the feet or two
+    separate legs cannot be found.
+    """
+    centre = points_mm.mean(axis=0)
+    basis = perpendicular_basis(principal_axis(points_mm))
+    local = (points_mm - centre) @ basis.T
+    h = local[:, 2]
+    lo, hi = h.min(), h.max()
+    length = hi - lo
+    slab = 0.05 * length
+    blobs_low = _slab_blob_count(local[h < lo + slab, :2])
+    blobs_high = _slab_blob_count(local[h > hi - slab, :2])
+    if blobs_low >= 2 and blobs_high < 2:
+        sign = 1.0
+    elif blobs_high >= 2 and blobs_low < 2:
+        sign = -1.0
+    else:
+        raise FitFailure(
+            FailureReason.SIDE_NOT_FOUND,
+            "this looks like a whole body but its two feet could not be told from its head",
+        )
+    height = (h - lo) if sign > 0 else (hi - h)
+    leg_region = height < LEG_REGION_FRACTION * length
+    shins = (height > 0.08 * length) & (height < 0.25 * length)
+    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(local[shins, :2])
+    c0, c1 = km.cluster_centers_
+    gap = np.linalg.norm(c1 - c0)
+    if gap < 60.0:
+        raise FitFailure(FailureReason.SIDE_NOT_FOUND, "the two legs of this body scan could not be separated")
+    direction = (c1 - c0) / gap
+    side_coord = (local[:, :2] - 0.5 * (c0 + c1)) @ direction
+    up = sign * basis[2]
+    return (
+        LegCut(np.flatnonzero(leg_region & (side_coord < 0)), up),
+        LegCut(np.flatnonzero(leg_region & (side_coord >= 0)), up),
+    )
+
+
+def submesh(point_index: np.ndarray, faces: np.ndarray | None, n_points: int) -> np.ndarray | None:
+    """Faces whose three corners are all in ``point_index``, renumbered; None for clouds."""
+    if faces is None:
+        return None
+    remap = np.full(n_points, -1, dtype=np.int64)
+    remap[point_index] = np.arange(len(point_index))
+    mapped = remap[faces]
+    return mapped[(mapped >= 0).all(axis=1)]
+
+
+def anterior_from_foot(calf_points: np.ndarray, ankle_centre_xy: np.ndarray, ankle_radius: float) -> np.ndarray | None:
+    """Direction (2,) from the ankle axis to the foot's mass, or None when no foot.
+
+    calf_points (n, 3) in a provisional frame with z = 0 at B and z up the leg.  The foot
+    is the part more than 40 mm below B; it counts when it reaches further than 1.5
+    ankle radii from the ankle axis (a heel and toes, not just a stump).
+    """
+    foot = calf_points[calf_points[:, 2] < -40.0, :2] - ankle_centre_xy
+    if len(foot) < 50:
+        return None
+    reach = np.linalg.norm(foot, axis=1)
+    if np.percentile(reach, 95) < 1.5 * ankle_radius:
+        return None
+    direction = foot.mean(axis=0)
+    norm = np.linalg.norm(direction)
+    return direction / norm if norm > 5.0 else None
+
+
+def anterior_from_calf_bulge(centroids_xy: np.ndarray, heights: np.ndarray, c_mm: float) -> np.ndarray | None:
+    """Anterior (2,) as opposite the calf bulge: the C centroid's offset from the B-D line.
+
+    centroids_xy (k, 2), heights (k,) of sections from B (first) to D (last).
+    """
+    t = (c_mm - heights[0]) / (heights[-1] - heights[0])
+    on_line = (1 - t) * centroids_xy[0] + t * centroids_xy[-1]
+    ic = int(np.argmin(np.abs(heights - c_mm)))
+    offset = centroids_xy[ic] - on_line
+    norm = np.linalg.norm(offset)
+    return -offset / norm if norm > 0.5 else None

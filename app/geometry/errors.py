@@ -1,0 +1,50 @@
+"""Typed failures of the fitting core.
+
+Every step of the pipeline that cannot go on raises :class:`FitFailure` with a
+:class:`FailureReason` (a stable machine-readable code) and a sentence a clinician or
+a script can act on.  Nothing in ``app.geometry`` lets a bare numpy/trimesh traceback
+escape for bad input: callers (CLI, HTTP service) map the reason to their own error
+format exactly once.
+"""
+
+from __future__ import annotations
+
+import enum
+
+
+class FailureReason(str, enum.Enum):
+    """Why a scan could not be turned into a calf record."""
+
+    UNREADABLE_FILE = "unreadable_file"
+    UNSUPPORTED_FORMAT = "unsupported_format"
+    EMPTY_SCAN = "empty_scan"
+    NON_FINITE_COORDINATES = "non_finite_coordinates"
+    TOO_FEW_POINTS = "too_few_points"
+    IMPLAUSIBLE_SIZE = "implausible_size"
+    NOT_A_LEG = "not_a_leg"
+    NO_ANKLE = "no_ankle"
+    NO_KNEE = "no_knee"
+    SIDE_NOT_FOUND = "side_not_found"
+    INVALID_OPTION = "invalid_option"
+    DEGENERATE_SURFACE = "degenerate_surface"
+    INVALID_RECORD = "invalid_record"
+
+
+class FitFailure(Exception):
+    """A scan (or record) that cannot be processed, with the reason.
+
+    Attributes
+    ----------
+    reason : FailureReason
+        Stable code, used as the last path segment of the HTTP problem ``type``.
+    detail : str
+        Human-readable explanation naming what is wrong with the input.
+    """
+
+    def __init__(self, reason: FailureReason, detail: str):
+        super().__init__(detail)
+        self.reason = FailureReason(reason)
+        self.detail = detail
+
+    def __repr__(self) -> str:  # pragma: no cover - debugging aid
+        return f"FitFailure({self.reason.value!r}, {self.detail!r})"

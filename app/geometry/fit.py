@@ -1,0 +1,310 @@
+"""The paper's pipeline end to end: scan -> calf frame -> sections -> landmarks ->
+feature points -> NURBS surface -> error index (sections 2.1-2.6).
+
+:func:`fit_scan` returns a :class:`FitResult` or raises :class:`FitFailure` with the
+reason.  Everything is in millimetres; the calf frame is described in
+:mod:`app.geometry.calf_frame`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry import calf_frame as cf
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.feature_points import candidate_angles, radii_at, shared_angles
+from app.geometry.landmarks import (
+    Landmark,
+    Landmarks,
+    b1_height,
+    find_feature_heights,
+    layer_heights,
+)
+from app.geometry.nurbs import NurbsSurface, surface_from_layers
+from app.geometry.scan_io import Scan
+from app.geometry.sections import PolarSections, slice_polar
+from app.geometry.surface_error import SurfaceError, error_statistics
+
+#: spacing of the coarse profile used to find B, C, D along the whole leg, mm
+COARSE_SPACING_MM = 2.0
+#: the calf axis is re-estimated by PCA until it moves less than this, degrees
+AXIS_TOLERANCE_DEG = 0.5
+MAX_AXIS_ITERATIONS = 2
+#: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
+COARSE_ANGLES = 36
+#: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
+PROFILE_MARGIN_MM = 70.0
+SURFACE_MODES = ("paper", "paper_stacked")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Options of a fit.
+
+    side : "left" | "right" | None  - which leg of a body; recorded for a leg scan.
+    points_per_layer : m, the shared feature angles per layer (paper: 8 or 15).
+    n_sections : resampled sections between B and D (paper: 200).
+    section_spacing_mm : if given, sections every this many mm instead (e.g. 1.0).
+    n_angles : rays per section (paper: 72, i.e. 5 degrees).
+    """
+
+    side: str | None = None
+    points_per_layer: int = 15
+    n_sections: int = 200
+    section_spacing_mm: float | None = None
+    n_angles: int = 72
+    mode: str = "paper"
+
+    def validate(self) -> None:
+        if self.side not in (None, "left", "right"):
+            raise FitFailure(FailureReason.INVALID_OPTION, f"side must be left or right, not {self.side!r}")
+        if not 4 <= self.points_per_layer <= 36:
+            raise FitFailure(FailureReason.INVALID_OPTION, "points per layer must be between 4 and 36 (paper: 8 or 15)")
+        if not 20 <= self.n_sections <= 2000:
+            raise FitFailure(FailureReason.INVALID_OPTION, "sections must be between 20 and 2000")
+        if self.section_spacing_mm is not None and not 0.2 <= self.section_spacing_mm <= 20:
+            raise FitFailure(FailureReason.INVALID_OPTION, "section spacing must be 0.2-20 mm")
+        if self.mode not in SURFACE_MODES:
+            raise FitFailure(FailureReason.INVALID_OPTION, f"mode must be one of {', '.join(SURFACE_MODES)}")
+        if self.n_angles not in (36, 72, 144, 360):
+            raise FitFailure(FailureReason.INVALID_OPTION, "angles per section must be 36, 72, 144 or 360")
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Everything the pipeline produced (calf-frame mm unless stated)."""
+
+    surface: NurbsSurface
+    frame: cf.CalfFrame
+    landmarks: Landmarks
+    sections: PolarSections  # the resampled sections between B and D
+    layer_sections: PolarSections  # the 7 feature layers
+    layer_points: np.ndarray  # (7, m, 3) the data grid
+    feature_angles_rad: np.ndarray  # (m,)
+    error: SurfaceError
+    side: str | None
+    n_scan_points: int
+    options: FitOptions
+    timings: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class _LegPlacement:
+    """A leg with its refined axis, landmarks and anterior direction (scan mm)."""
+
+    points: np.ndarray
+    faces: np.ndarray | None
+    frame: cf.CalfFrame
+    b_mm: float  # calf-frame heights: B is 0 by construction
+    c_mm: float
+    d_mm: float
+    d_at_window_edge: bool
+
+
+def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None):
+    """Coarse circumference profile along z (every 2 mm, 36 rays), for finding B, C, D."""
+    z = local[:, 2]
+    lo, hi = (z.min(), z.max()) if z_range is None else (max(z.min(), z_range[0]), min(z.max(), z_range[1]))
+    heights = np.arange(lo + 1.0, hi - 1.0, COARSE_SPACING_MM)
+    if len(heights) < 20:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
+    sections = slice_polar(local, faces, heights, COARSE_ANGLES)
+    return heights, sections.circumferences(), sections
+
+
+def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float) -> _LegPlacement:
+    """Axis by PCA, B/C/D, refined calf axis, anterior direction: the leg's calf frame.
+
+    Paper section 2.1: PCA of the whole leg gives a first axis; B, C, D are found on
+    the profile along it (both ways round when the scan's up is unknown); then the axis
+    is re-estimated by PCA of the calf between B and D and the landmarks found again,
+    at most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
+    :data:`AXIS_TOLERANCE_DEG`.
+    """
+    axis = cf.principal_axis(points)
+    if up is not None and axis @ up < 0:
+        axis = -axis
+    centre = points.mean(axis=0)
+    basis = cf.perpendicular_basis(axis)
+    local = (points - centre) @ basis.T
+    heights, girth, sections = _profile(local, faces)
+    if up is not None:
+        feats = find_feature_heights(heights, girth)
+    else:
+        feats, flipped = _either_way(heights, girth)
+        if flipped:  # the scan's axis pointed towards the foot
+            axis = -axis
+            feats = find_feature_heights(-heights[::-1], girth[::-1])
+            basis = cf.perpendicular_basis(axis)
+            local = (points - centre) @ basis.T
+            heights, girth, sections = _profile(local, faces)
+    for _ in range(MAX_AXIS_ITERATIONS):
+        z = local[:, 2]
+        calf = (z >= feats.b_mm) & (z <= feats.d_mm)
+        new_axis = cf.principal_axis(points[calf])
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis)
+        local = (points - centre) @ basis.T
+        window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
+        heights, girth, sections = _profile(local, faces, window)
+        feats = find_feature_heights(heights, girth, feats.c_mm)
+
+    # anterior: the foot when there is one, else opposite the calf bulge
+    calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid
+    if calf_rows.sum() < 10:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the calf's cross-sections could not be measured")
+    b_centre = sections.centroids_mm[calf_rows][0]
+    b_radius = float(sections.mean_radii()[calf_rows][0])
+    shifted = local - np.array([0.0, 0.0, feats.b_mm])
+    anterior = cf.anterior_from_foot(shifted, b_centre, b_radius)
+    cue = "foot"
+    if anterior is None:
+        anterior = cf.anterior_from_calf_bulge(sections.centroids_mm[calf_rows], heights[calf_rows], feats.c_mm)
+        cue = "calf_bulge"
+    if anterior is None:
+        anterior, cue = np.array([0.0, 1.0]), "undetermined"
+    hint = anterior[0] * basis[0] + anterior[1] * basis[1]
+    rotation = cf.perpendicular_basis(axis, hint)
+    origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
+    frame = cf.CalfFrame(rotation, origin, mm_per_unit, cue)
+    return _LegPlacement(
+        points, faces, frame, 0.0, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm, feats.d_at_window_edge
+    )
+
+
+def _either_way(heights: np.ndarray, girth: np.ndarray):
+    """Landmarks with the scan's axis as it is or reversed; (features, reversed?)."""
+    try:
+        return find_feature_heights(heights, girth), False
+    except FitFailure as as_is:
+        flipped_heights = -heights[::-1]
+        try:
+            return find_feature_heights(flipped_heights, girth[::-1]), True
+        except FitFailure as reversed_failure:
+            # report the failure of the more plausible orientation: knee end thicker
+            tenth = max(len(girth) // 10, 1)
+            ends_up = np.nanmean(girth[-tenth:]) >= np.nanmean(girth[:tenth])
+            raise (as_is if ends_up else reversed_failure) from None
+
+
+def _choose_leg(scan: Scan, side: str | None) -> tuple[_LegPlacement, str | None]:
+    points, faces = scan.points_mm, scan.faces
+    sample = points[:: max(len(points) // 20000, 1)]
+    axis = cf.principal_axis(sample)
+    length = float(np.ptp(points @ axis))
+    if length < cf.BODY_MIN_LENGTH_MM:
+        return _place_leg(points, faces, None, scan.mm_per_unit), side
+    legs = []
+    for cut in cf.split_body_legs(points):
+        legs.append(
+            _place_leg(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)), cut.up, scan.mm_per_unit)
+        )
+    # left/right from the two legs' shared anterior direction: right = anterior x up
+    up = legs[0].frame.rotation[2] + legs[1].frame.rotation[2]
+    anterior = legs[0].frame.rotation[1] + legs[1].frame.rotation[1]
+    right = np.cross(anterior, up)
+    first_is_right = (legs[0].frame.origin_mm - legs[1].frame.origin_mm) @ right > 0
+    chosen_side = side or "right"
+    pick = 0 if (chosen_side == "right") == first_is_right else 1
+    return legs[pick], chosen_side
+
+
+def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
+    if options.section_spacing_mm:
+        return np.arange(b, d + 1e-9, options.section_spacing_mm)
+    return np.linspace(b, d, options.n_sections)
+
+
+def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
+    """Fit the paper's NURBS calf model to a scan (see module docstring)."""
+    options = options or FitOptions()
+    options.validate()
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+
+    leg, side = _choose_leg(scan, options.side)
+    lap("calf_frame")
+
+    local = leg.frame.to_calf(leg.points)
+    faces = leg.faces
+    if faces is not None:  # only the triangles reaching the calf
+        fz = local[:, 2][faces]
+        faces = faces[(fz.max(axis=1) >= leg.b_mm - 2.0) & (fz.min(axis=1) <= leg.d_mm + 2.0)]
+    heights = _section_heights(leg.b_mm, leg.d_mm, options)
+    sections = slice_polar(local, faces, heights, options.n_angles)
+    valid = sections.valid
+    if valid.mean() < 0.9:
+        raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
+    lap("resample")
+
+    girth = sections.circumferences()
+    c_mm = leg.c_mm
+    b1_mm = b1_height(heights, girth, leg.b_mm, c_mm)
+    layers_z = layer_heights(leg.b_mm, b1_mm, c_mm, leg.d_mm)
+    layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
+    if not layer_sections.valid.all():
+        raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
+    layer_girth = layer_sections.circumferences()
+    landmarks = Landmarks(
+        B=Landmark(float(layers_z[0]), float(layer_girth[0])),
+        B1=Landmark(float(layers_z[2]), float(layer_girth[2])),
+        C=Landmark(float(layers_z[4]), float(layer_girth[4])),
+        D=Landmark(float(layers_z[6]), float(layer_girth[6])),
+        layer_heights_mm=layers_z,
+        d_at_window_edge=leg.d_at_window_edge,
+    )
+    lap("landmarks")
+
+    angles = shared_angles(candidate_angles(layer_sections.radii_mm, layer_sections.angles_rad), options.points_per_layer)
+    radii = radii_at(layer_sections.radii_mm, layer_sections.angles_rad, angles)
+    centres = layer_sections.centroids_mm
+    layer_points = np.stack(
+        [
+            centres[:, 0, None] + radii * np.cos(angles),
+            centres[:, 1, None] + radii * np.sin(angles),
+            np.broadcast_to(layers_z[:, None], radii.shape),
+        ],
+        axis=-1,
+    )
+    lap("feature_points")
+
+    try:
+        surface = surface_from_layers(layer_points, mode=options.mode)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE, f"the feature grid cannot be interpolated: {exc}") from exc
+    lap("nurbs")
+
+    in_calf = (local[:, 2] >= leg.b_mm) & (local[:, 2] <= leg.d_mm)
+    ok = valid
+    error, _, _ = error_statistics(
+        surface, local[in_calf], heights[ok], sections.mean_radii()[ok], layers_z
+    )
+    lap("error")
+    return FitResult(
+        surface=surface,
+        frame=leg.frame,
+        landmarks=landmarks,
+        sections=sections,
+        layer_sections=layer_sections,
+        layer_points=layer_points,
+        feature_angles_rad=angles,
+        error=error,
+        side=side,
+        n_scan_points=int(len(scan.points_mm)),
+        options=options,
+        timings=timings,
+    )

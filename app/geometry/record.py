@@ -1,0 +1,211 @@
+"""The calf record: the compact, exact result of a fit, as a frozen dataclass and JSON.
+
+JSON layout (``schema_version`` 1; all lengths in millimetres, ``units`` = "mm")::
+
+    schema_version, units, side ("left" | "right" | null)
+    surface   {degree_u, degree_v, knots_u, knots_v, control_points [nu][nv][3],
+               weights [nu][nv], periodic_u}
+    frame     4x4 matrix taking calf-frame mm to the scan's own coordinates and units
+              (so it includes the uniform scale 1/mm_per_unit)
+    scan      {units, format, n_points, anterior_cue}
+    landmarks {B, B1, C, D: {height_mm, circumference_mm}}   (calf-frame z; B = 0)
+    layers    {heights_mm [7], feature_angles_deg [m]}
+    fit       {mode, layers, points_per_layer, sections, angles, error_index,
+               error_index_exact, error_index_diameter, error_index_exact_diameter,
+               max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
+               stage_seconds, per_layer, d_at_window_edge}
+
+The surface is stored in the standard open form (see :mod:`app.geometry.nurbs`): u runs
+around the leg and is periodic but written unwrapped - the first ``degree_u`` control
+columns are repeated at the end, ``knots_u`` has nu + degree_u + 1 entries and the
+valid u domain is [knots_u[degree_u], knots_u[nu]]; v runs from B (layer 0) to D.
+Error indices are fractions: 0.0037 means 0.37%.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit import FitResult
+from app.geometry.landmarks import LANDMARK_NAMES
+from app.geometry.nurbs import NurbsSurface
+
+SCHEMA_VERSION = 1
+
+
+@dataclass(frozen=True)
+class CalfRecord:
+    """A stored calf model (see the module docstring for the JSON form)."""
+
+    surface: NurbsSurface
+    frame: np.ndarray  # (4, 4) calf mm -> scan units
+    landmarks: dict  # name -> {"height_mm", "circumference_mm"}
+    side: str | None = None
+    layers: dict = field(default_factory=dict)
+    fit: dict = field(default_factory=dict)
+    scan: dict = field(default_factory=dict)
+    schema_version: int = SCHEMA_VERSION
+
+    def to_dict(self) -> dict:
+        s = self.surface
+        return {
+            "schema_version": self.schema_version,
+            "units": "mm",
+            "side": self.side,
+            "surface": {
+                "degree_u": s.degree_u,
+                "degree_v": s.degree_v,
+                "knots_u": s.knots_u.tolist(),
+                "knots_v": s.knots_v.tolist(),
+                "control_points": s.control_points.tolist(),
+                "weights": s.weights.tolist(),
+                "periodic_u": bool(s.periodic_u),
+            },
+            "frame": self.frame.tolist(),
+            "scan": self.scan,
+            "landmarks": self.landmarks,
+            "layers": self.layers,
+            "fit": self.fit,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "CalfRecord":
+        """Validate and build a record; raises FitFailure(INVALID_RECORD) naming the problem."""
+        return parse_record(data)
+
+
+def record_from_fit(result: FitResult, scan_format: str, scan_units: str, seconds: float | None = None) -> CalfRecord:
+    """Build the record of a fit."""
+    err = result.error
+    fit = {
+        "mode": result.options.mode,
+        "layers": int(result.layer_points.shape[0]),
+        "points_per_layer": int(result.layer_points.shape[1]),
+        "sections": int(len(result.sections.heights_mm)),
+        "angles": int(len(result.sections.angles_rad)),
+        "error_index": err.error_index,
+        "error_index_exact": err.error_index_exact,
+        "error_index_diameter": err.error_index_diameter,
+        "error_index_exact_diameter": err.error_index_exact_diameter,
+        "max_error_mm": err.max_error_mm,
+        "mean_error_mm": err.mean_error_mm,
+        "n_scan_points": result.n_scan_points,
+        "n_error_points": err.n_points,
+        "seconds": float(seconds if seconds is not None else sum(result.timings.values())),
+        "stage_seconds": {k: float(v) for k, v in result.timings.items()},
+        "per_layer": list(err.per_layer),
+        "d_at_window_edge": bool(result.landmarks.d_at_window_edge),
+    }
+    return CalfRecord(
+        surface=result.surface,
+        frame=result.frame.matrix(),
+        landmarks=result.landmarks.as_dict(),
+        side=result.side,
+        layers={
+            "heights_mm": result.landmarks.layer_heights_mm.tolist(),
+            "feature_angles_deg": np.degrees(result.feature_angles_rad).tolist(),
+        },
+        fit=fit,
+        scan={
+            "units": scan_units,
+            "format": scan_format,
+            "n_points": result.n_scan_points,
+            "anterior_cue": result.frame.anterior_cue,
+        },
+    )
+
+
+def _invalid(detail: str) -> FitFailure:
+    return FitFailure(FailureReason.INVALID_RECORD, detail)
+
+
+def _finite_array(value, name: str, ndim: int) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise _invalid(f"{name} must be an array of numbers") from exc
+    if array.ndim != ndim:
+        raise _invalid(f"{name} must be {ndim}-dimensional, got shape {array.shape}")
+    if not np.isfinite(array).all():
+        raise _invalid(f"{name} contains NaN or infinite values")
+    return array
+
+
+def parse_record(data: dict) -> CalfRecord:
+    """Validate a record dictionary (knots, shapes, weights, finiteness) and build it."""
+    if not isinstance(data, dict):
+        raise _invalid("a record must be a JSON object")
+    version = data.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise _invalid(f"schema_version must be {SCHEMA_VERSION}, got {version!r}")
+    if data.get("units", "mm") != "mm":
+        raise _invalid("units must be 'mm'")
+    surf = data.get("surface")
+    if not isinstance(surf, dict):
+        raise _invalid("surface is missing")
+    try:
+        p, q = int(surf["degree_u"]), int(surf["degree_v"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise _invalid("surface.degree_u and surface.degree_v must be integers") from exc
+    if not (1 <= p <= 5 and 1 <= q <= 5):
+        raise _invalid("degrees must be between 1 and 5")
+    ctrl = _finite_array(surf.get("control_points"), "surface.control_points", 3)
+    weights = _finite_array(surf.get("weights"), "surface.weights", 2)
+    knots_u = _finite_array(surf.get("knots_u"), "surface.knots_u", 1)
+    knots_v = _finite_array(surf.get("knots_v"), "surface.knots_v", 1)
+    nu, nv, dim = ctrl.shape
+    if dim != 3:
+        raise _invalid("control points must have 3 coordinates")
+    if nu <= p or nv <= q:
+        raise _invalid(f"need more than degree control points in each direction, got {nu} x {nv}")
+    if weights.shape != (nu, nv):
+        raise _invalid(f"weights must be {nu} x {nv} like the control net, got {weights.shape}")
+    if (weights <= 0).any():
+        raise _invalid("weights must be positive")
+    for name, knots, n, deg in (("knots_u", knots_u, nu, p), ("knots_v", knots_v, nv, q)):
+        if len(knots) != n + deg + 1:
+            raise _invalid(f"surface.{name} must have {n + deg + 1} entries (n + degree + 1), got {len(knots)}")
+        if np.any(np.diff(knots) < 0):
+            raise _invalid(f"surface.{name} must be non-decreasing")
+        if knots[n] <= knots[deg]:
+            raise _invalid(f"surface.{name} has an empty domain")
+    periodic = bool(surf.get("periodic_u", False))
+    if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
+        raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
+    frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)
+    if frame.shape != (4, 4) or not np.allclose(frame[3], [0, 0, 0, 1]):
+        raise _invalid("frame must be a 4x4 homogeneous matrix with last row 0 0 0 1")
+    if abs(np.linalg.det(frame[:3, :3])) < 1e-12:
+        raise _invalid("frame is singular")
+    landmarks = data.get("landmarks") or {}
+    if not isinstance(landmarks, dict):
+        raise _invalid("landmarks must be an object")
+    clean_landmarks = {}
+    for name in LANDMARK_NAMES:
+        if name not in landmarks:
+            continue
+        entry = landmarks[name]
+        try:
+            h, c = float(entry["height_mm"]), float(entry["circumference_mm"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise _invalid(f"landmarks.{name} needs numeric height_mm and circumference_mm") from exc
+        if not (math.isfinite(h) and math.isfinite(c)) or c <= 0:
+            raise _invalid(f"landmarks.{name} must be finite with a positive circumference")
+        clean_landmarks[name] = {"height_mm": h, "circumference_mm": c}
+    side = data.get("side")
+    if side not in (None, "left", "right"):
+        raise _invalid("side must be 'left', 'right' or null")
+    surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    return CalfRecord(
+        surface=surface,
+        frame=frame,
+        landmarks=clean_landmarks,
+        side=side,
+        layers=data.get("layers") or {},
+        fit=data.get("fit") or {},
+        scan=data.get("scan") or {},
+    )

@@ -1,0 +1,278 @@
+"""Reading scans into millimetre point sets (paper section 2.1, data acquisition).
+
+Supported: STL (binary and ASCII), PLY (mesh or points only), OBJ, OFF, GLB/glTF
+(through trimesh), and plain XYZ / CSV point clouds (three numeric columns, optional
+header, comma / semicolon / whitespace separated).
+
+Units: everything inside the service is millimetres.  The unit of a file is taken from
+the caller (``units=``) or detected from the largest bounding-box extent ``L``: a
+human lower leg is at least 120 mm long and a whole body at most 2.5 m, so the first of
+``mm`` (120 <= L <= 2500), ``m`` (0.12 <= L <= 2.5) and ``cm`` (12 <= L <= 250) that puts
+``L`` in 120..2500 mm wins.  The one real ambiguity (a 1.2-2.5 m body in cm reads like a
+120-250 mm calf piece in mm) resolves to mm; pass ``units="cm"`` for such files.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+
+from app.geometry.errors import FailureReason, FitFailure
+
+#: file extensions (lower case, no dot) the reader accepts
+SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt")
+
+#: millimetres per unit
+UNIT_SCALE_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
+
+#: plausible extent of a leg or body scan, mm
+MIN_EXTENT_MM = 120.0
+MAX_EXTENT_MM = 2500.0
+
+#: fewer points than this cannot carry 200 sections x 72 angles of skin
+MIN_POINTS = 500
+
+
+@dataclass(frozen=True)
+class Scan:
+    """A scan in millimetres, still in the scan's own axes.
+
+    Attributes
+    ----------
+    points_mm : (n, 3) float64
+        Vertex (or point-cloud) coordinates, millimetres.
+    faces : (f, 3) int64 or None
+        Triangles indexing ``points_mm``; ``None`` for a point cloud.
+    units : str
+        Unit of the file: ``"mm"``, ``"cm"`` or ``"m"``.
+    units_detected : bool
+        True when ``units`` was inferred from the extent rather than given.
+    source_format : str
+        The format the file was read as.
+    """
+
+    points_mm: np.ndarray
+    faces: np.ndarray | None
+    units: str
+    units_detected: bool
+    source_format: str
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def mm_per_unit(self) -> float:
+        return UNIT_SCALE_MM[self.units]
+
+    @property
+    def is_mesh(self) -> bool:
+        return self.faces is not None and len(self.faces) > 0
+
+
+def detect_units(extent: float) -> str:
+    """Unit of a scan whose largest bounding-box extent is ``extent`` (file units).
+
+    See the module docstring for the rule.  Raises ``FitFailure(IMPLAUSIBLE_SIZE)`` when
+    no unit makes the scan the size of a leg or a body.
+    """
+    for unit in ("mm", "m", "cm"):
+        length_mm = extent * UNIT_SCALE_MM[unit]
+        if MIN_EXTENT_MM <= length_mm <= MAX_EXTENT_MM:
+            return unit
+    raise FitFailure(
+        FailureReason.IMPLAUSIBLE_SIZE,
+        f"the scan's largest extent is {extent:g} file units, which is not the size of a "
+        "lower leg, a leg or a body in mm, cm or m; pass the units explicitly",
+    )
+
+
+def _format_of(name: str | None, file_type: str | None) -> str:
+    fmt = (file_type or "").lower().lstrip(".")
+    if not fmt and name:
+        fmt = os.path.splitext(name)[1].lower().lstrip(".")
+    if fmt == "stl_ascii":
+        fmt = "stl"
+    if fmt not in SUPPORTED_FORMATS:
+        raise FitFailure(
+            FailureReason.UNSUPPORTED_FORMAT,
+            f"unsupported scan format {fmt or '(none)'!r}; use one of "
+            + ", ".join(SUPPORTED_FORMATS),
+        )
+    return fmt
+
+
+_NUMBER_ROW = re.compile(r"^\s*[-+0-9.]")
+
+
+def _read_text_cloud(data: bytes) -> np.ndarray:
+    """Parse an XYZ/CSV/TXT point cloud: the first three numeric columns of each row."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise FitFailure(FailureReason.UNREADABLE_FILE, "point cloud is not UTF-8 text") from exc
+    rows = [line for line in text.splitlines() if _NUMBER_ROW.match(line)]
+    if not rows:
+        raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no numeric rows")
+    body = "\n".join(rows).replace(";", " ").replace(",", " ").replace("\t", " ")
+    try:
+        table = np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2)
+    except ValueError as exc:
+        raise FitFailure(
+            FailureReason.UNREADABLE_FILE, f"point cloud rows are not all numbers: {exc}"
+        ) from exc
+    if table.shape[1] < 3:
+        raise FitFailure(
+            FailureReason.UNREADABLE_FILE,
+            f"point cloud rows have {table.shape[1]} columns; x, y, z are needed",
+        )
+    return table[:, :3]
+
+
+def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Merge bit-identical vertices (STL stores every corner separately).
+
+    vertices (n, 3), faces (f, 3) -> unique vertices (u, 3) and re-indexed faces.  A
+    64-bit hash of the coordinates is made unique with numpy; the result is checked
+    exactly and trimesh's own merge is used if two different points ever collide.
+    """
+    bits = np.ascontiguousarray(vertices, dtype=np.float64).view(np.uint64)
+    key = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F) ^ bits[:, 2]
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    unique = vertices[first]
+    if not np.array_equal(unique[inverse], vertices):  # hash collision: be exact
+        mesh = trimesh.Trimesh(vertices, faces, process=False)
+        mesh.merge_vertices(merge_tex=True, merge_norm=True)
+        return np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64)
+    return unique, inverse.reshape(-1)[faces]
+
+
+def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | None]:
+    trimesh_type = "stl" if fmt == "stl" else fmt
+    try:
+        # no trimesh processing: exact duplicate corners are merged below (3x faster);
+        # nothing else is needed by the slicer, which takes any triangle soup
+        geometry = trimesh.load(io.BytesIO(data), file_type=trimesh_type, process=False)
+    except Exception as exc:  # trimesh raises many kinds for corrupt files
+        raise FitFailure(
+            FailureReason.UNREADABLE_FILE,
+            f"the file could not be read as {fmt.upper()}: {type(exc).__name__}: {exc}",
+        ) from exc
+    if isinstance(geometry, trimesh.Scene):
+        meshes = [g for g in geometry.dump() if isinstance(g, trimesh.Trimesh)]
+        clouds = [g for g in geometry.dump() if isinstance(g, trimesh.PointCloud)]
+        if meshes:
+            geometry = trimesh.util.concatenate(meshes)
+        elif clouds:
+            geometry = trimesh.PointCloud(np.vstack([c.vertices for c in clouds]))
+        else:
+            raise FitFailure(FailureReason.EMPTY_SCAN, "the file holds no mesh or points")
+    if isinstance(geometry, trimesh.Trimesh):
+        faces = np.asarray(geometry.faces, dtype=np.int64)
+        vertices = np.asarray(geometry.vertices, dtype=np.float64)
+        if not len(faces):
+            return vertices, None
+        if not np.isfinite(vertices).all():
+            return vertices, faces  # rejected with a reason by the caller
+        if faces.min() < 0 or faces.max() >= len(vertices):
+            raise FitFailure(FailureReason.UNREADABLE_FILE, "the mesh has faces pointing at missing vertices")
+        vertices, faces = merge_duplicate_vertices(vertices, faces)
+        used = np.unique(faces)
+        if len(used) < len(vertices):  # drop vertices no face uses
+            remap = np.full(len(vertices), -1, dtype=np.int64)
+            remap[used] = np.arange(len(used))
+            vertices, faces = vertices[used], remap[faces]
+        return vertices, faces
+    if isinstance(geometry, trimesh.PointCloud):
+        return np.asarray(geometry.vertices, dtype=np.float64), None
+    raise FitFailure(
+        FailureReason.UNREADABLE_FILE, f"the file holds a {type(geometry).__name__}, not a scan"
+    )
+
+
+def load_scan(
+    source: str | os.PathLike | bytes,
+    *,
+    file_type: str | None = None,
+    units: str | None = None,
+) -> Scan:
+    """Read a scan file (path or bytes) into a :class:`Scan` in millimetres.
+
+    Parameters
+    ----------
+    source : path or bytes
+        The file.  With bytes, ``file_type`` names the format.
+    file_type : str, optional
+        Format (extension without the dot); taken from the path when omitted.
+    units : {"mm", "cm", "m"}, optional
+        Unit of the coordinates; detected from the extent when omitted.
+
+    Raises
+    ------
+    FitFailure
+        ``unsupported_format``, ``unreadable_file``, ``empty_scan``,
+        ``non_finite_coordinates``, ``too_few_points`` or ``implausible_size``.
+    """
+    name = None
+    if isinstance(source, (bytes, bytearray, memoryview)):
+        data = bytes(source)
+    else:
+        name = os.fspath(source)
+        try:
+            with open(name, "rb") as handle:
+                data = handle.read()
+        except OSError as exc:
+            raise FitFailure(FailureReason.UNREADABLE_FILE, f"cannot open {name}: {exc}") from exc
+    fmt = _format_of(name, file_type)
+    if units is not None and units not in UNIT_SCALE_MM:
+        raise FitFailure(
+            FailureReason.INVALID_OPTION, f"units must be one of mm, cm, m, not {units!r}"
+        )
+    if not data.strip():
+        raise FitFailure(FailureReason.EMPTY_SCAN, "the file is empty")
+
+    if fmt in ("xyz", "csv", "txt"):
+        points, faces = _read_text_cloud(data), None
+    else:
+        points, faces = _read_with_trimesh(data, fmt)
+
+    if points.size == 0:
+        raise FitFailure(FailureReason.EMPTY_SCAN, "the scan has no points")
+    if not np.isfinite(points).all():
+        bad = int((~np.isfinite(points)).any(axis=1).sum())
+        raise FitFailure(
+            FailureReason.NON_FINITE_COORDINATES,
+            f"{bad} of {len(points)} points have NaN or infinite coordinates",
+        )
+    if faces is not None:
+        # drop faces that reference nothing real; keep the mesh otherwise untouched
+        used = np.unique(faces)
+        if len(used) < MIN_POINTS:
+            raise FitFailure(
+                FailureReason.TOO_FEW_POINTS,
+                f"the mesh has {len(used)} vertices; at least {MIN_POINTS} are needed",
+            )
+    if len(points) < MIN_POINTS:
+        raise FitFailure(
+            FailureReason.TOO_FEW_POINTS,
+            f"the scan has {len(points)} points; at least {MIN_POINTS} are needed",
+        )
+    extent = float(np.ptp(points, axis=0).max())
+    detected = units is None
+    unit = detect_units(extent) if detected else units
+    length_mm = extent * UNIT_SCALE_MM[unit]
+    if not (MIN_EXTENT_MM <= length_mm <= MAX_EXTENT_MM):
+        raise FitFailure(
+            FailureReason.IMPLAUSIBLE_SIZE,
+            f"in {unit} the scan is {length_mm:.0f} mm long; a leg or body scan is "
+            f"{MIN_EXTENT_MM:.0f}-{MAX_EXTENT_MM:.0f} mm",
+        )
+    return Scan(
+        points_mm=points * UNIT_SCALE_MM[unit],
+        faces=faces,
+        units=unit,
+        units_detected=detected,
+        source_format=fmt,
+    )
