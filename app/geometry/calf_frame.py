@@ -71,6 +71,22 @@ def principal_axis(points: np.ndarray, weights: np.ndarray | None = None) -> np.
     return vectors[:, -1]
 
 
+def principal_frame(points: np.ndarray) -> np.ndarray:
+    """(3, 3) rows: principal axes of (n, 3) points, largest variance last (z).
+
+    Each axis' sign is fixed by the sign of the third moment along it, so the frame
+    turns with the scan (no dependence on the scan's own axes); the first row is
+    re-derived so the frame is right-handed.
+    """
+    centred = points - points.mean(axis=0)
+    _, vectors = np.linalg.eigh(centred.T @ centred)
+    axes = vectors.T[::-1][[1, 2, 0]]  # second, third, first component -> x, y, z
+    skew = ((centred @ axes.T) ** 3).mean(axis=0)
+    axes = axes * np.where(skew < 0, -1.0, 1.0)[:, None]
+    axes[0] = np.cross(axes[1], axes[2])
+    return axes
+
+
 def perpendicular_basis(axis: np.ndarray, hint: np.ndarray | None = None) -> np.ndarray:
     """(3, 3) rotation whose rows x, y, z are right-handed with z = axis.
 

@@ -30,6 +30,8 @@ from app.geometry.surface_error import SurfaceError, error_statistics
 
 #: spacing of the coarse profile used to find B, C, D along the whole leg, mm
 COARSE_SPACING_MM = 2.0
+#: spacing of the first profile over the whole scan (before the calf is known), mm
+FIRST_SPACING_MM = 3.0
 #: the calf axis is re-estimated by PCA until it moves less than this, degrees
 AXIS_TOLERANCE_DEG = 0.5
 MAX_AXIS_ITERATIONS = 2
@@ -105,10 +107,19 @@ class _LegPlacement:
 
 
 def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None):
-    """Coarse circumference profile along z (every 2 mm, 36 rays), for finding B, C, D."""
+    """Coarse circumference profile along z (36 rays), for finding B, C, D.
+
+    The whole leg every :data:`FIRST_SPACING_MM`; a window ``z_range`` every
+    :data:`COARSE_SPACING_MM`.
+    """
     z = local[:, 2]
-    lo, hi = (z.min(), z.max()) if z_range is None else (max(z.min(), z_range[0]), min(z.max(), z_range[1]))
-    heights = np.arange(lo + 1.0, hi - 1.0, COARSE_SPACING_MM)
+    if z_range is None:
+        lo, hi, spacing = z.min(), z.max(), FIRST_SPACING_MM
+    else:
+        lo, hi, spacing = max(z.min(), z_range[0]), min(z.max(), z_range[1]), COARSE_SPACING_MM
+    # planes at whole multiples of the spacing from the leg's centroid: the same planes
+    # whichever way round the scan comes
+    heights = np.arange(np.ceil((lo + 1.0) / spacing), np.floor((hi - 1.0) / spacing) + 1) * spacing
     if len(heights) < 20:
         raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
     sections = slice_polar(local, faces, heights, COARSE_ANGLES)
@@ -124,11 +135,12 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     at most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
     :data:`AXIS_TOLERANCE_DEG`.
     """
-    axis = cf.principal_axis(points)
+    shape_axes = cf.principal_frame(points)
+    axis = shape_axes[2]
     if up is not None and axis @ up < 0:
         axis = -axis
     centre = points.mean(axis=0)
-    basis = cf.perpendicular_basis(axis)
+    basis = cf.perpendicular_basis(axis, shape_axes[1])
     local = (points - centre) @ basis.T
     heights, girth, sections = _profile(local, faces)
     if up is not None:
@@ -138,7 +150,7 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
         if flipped:  # the scan's axis pointed towards the foot
             axis = -axis
             feats = find_feature_heights(-heights[::-1], girth[::-1])
-            basis = cf.perpendicular_basis(axis)
+            basis = cf.perpendicular_basis(axis, basis[1])
             local = (points - centre) @ basis.T
             heights, girth, sections = _profile(local, faces)
     for _ in range(MAX_AXIS_ITERATIONS):
@@ -151,7 +163,7 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
         if moved < AXIS_TOLERANCE_DEG:
             break
         axis = new_axis
-        basis = cf.perpendicular_basis(axis)
+        basis = cf.perpendicular_basis(axis, basis[1])
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window)
@@ -227,6 +239,36 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
     """Fit the paper's NURBS calf model to a scan (see module docstring)."""
     options = options or FitOptions()
     options.validate()
+    started = time.perf_counter()
+    leg, side = _choose_leg(scan, options.side)
+    placed = time.perf_counter()
+    local = leg.frame.to_calf(leg.points)
+    result = fit_calf(local, leg.faces, leg.c_mm, leg.d_mm, options, frame=leg.frame, side=side,
+                      n_scan_points=len(scan.points_mm), d_at_window_edge=leg.d_at_window_edge)
+    result.timings["calf_frame"] = placed - started
+    return result
+
+
+def fit_calf(
+    local: np.ndarray,
+    faces: np.ndarray | None,
+    c_mm: float,
+    d_mm: float,
+    options: FitOptions | None = None,
+    *,
+    frame: cf.CalfFrame | None = None,
+    side: str | None = None,
+    n_scan_points: int | None = None,
+    d_at_window_edge: bool = False,
+) -> FitResult:
+    """Sections 2.1-2.6 on a scan already in the calf frame, B at z = 0.
+
+    local (n, 3) calf-frame mm; faces (f, 3) or None; ``c_mm`` and ``d_mm`` the calf
+    maximum and the minimum below the knee (B1 is found here, from the resampled
+    profile).  ``frame`` defaults to the identity placement.
+    """
+    options = options or FitOptions()
+    options.validate()
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -236,15 +278,13 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
         timings[stage] = now - clock
         clock = now
 
-    leg, side = _choose_leg(scan, options.side)
-    lap("calf_frame")
-
-    local = leg.frame.to_calf(leg.points)
-    faces = leg.faces
+    if frame is None:
+        frame = cf.CalfFrame(np.eye(3), np.zeros(3), 1.0, "given")
+    b_mm = 0.0
     if faces is not None:  # only the triangles reaching the calf
         fz = local[:, 2][faces]
-        faces = faces[(fz.max(axis=1) >= leg.b_mm - 2.0) & (fz.min(axis=1) <= leg.d_mm + 2.0)]
-    heights = _section_heights(leg.b_mm, leg.d_mm, options)
+        faces = faces[(fz.max(axis=1) >= b_mm - 2.0) & (fz.min(axis=1) <= d_mm + 2.0)]
+    heights = _section_heights(b_mm, d_mm, options)
     sections = slice_polar(local, faces, heights, options.n_angles)
     valid = sections.valid
     if valid.mean() < 0.9:
@@ -252,9 +292,8 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
     lap("resample")
 
     girth = sections.circumferences()
-    c_mm = leg.c_mm
-    b1_mm = b1_height(heights, girth, leg.b_mm, c_mm)
-    layers_z = layer_heights(leg.b_mm, b1_mm, c_mm, leg.d_mm)
+    b1_mm = b1_height(heights, girth, b_mm, c_mm)
+    layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if not layer_sections.valid.all():
         raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
@@ -265,7 +304,7 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
         C=Landmark(float(layers_z[4]), float(layer_girth[4])),
         D=Landmark(float(layers_z[6]), float(layer_girth[6])),
         layer_heights_mm=layers_z,
-        d_at_window_edge=leg.d_at_window_edge,
+        d_at_window_edge=d_at_window_edge,
     )
     lap("landmarks")
 
@@ -288,15 +327,12 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
         raise FitFailure(FailureReason.DEGENERATE_SURFACE, f"the feature grid cannot be interpolated: {exc}") from exc
     lap("nurbs")
 
-    in_calf = (local[:, 2] >= leg.b_mm) & (local[:, 2] <= leg.d_mm)
-    ok = valid
-    error, _, _ = error_statistics(
-        surface, local[in_calf], heights[ok], sections.mean_radii()[ok], layers_z
-    )
+    in_calf = (local[:, 2] >= b_mm) & (local[:, 2] <= d_mm)
+    error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
     lap("error")
     return FitResult(
         surface=surface,
-        frame=leg.frame,
+        frame=frame,
         landmarks=landmarks,
         sections=sections,
         layer_sections=layer_sections,
@@ -304,7 +340,7 @@ def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
         feature_angles_rad=angles,
         error=error,
         side=side,
-        n_scan_points=int(len(scan.points_mm)),
+        n_scan_points=int(n_scan_points if n_scan_points is not None else len(local)),
         options=options,
         timings=timings,
     )

@@ -34,8 +34,10 @@ INTERIOR_MARGIN_MM = 6.0
 #: minimum calf bulge C/B and knee-end ratio D/B
 MIN_CALF_RATIO = 1.10
 MIN_KNEE_RATIO = 1.05
-#: a plateau shoulder has a girth slope below this (mm of girth per mm of height)
-SHOULDER_SLOPE = 0.25
+#: a plateau shoulder: the girth slope falls below this fraction of the steepest slope
+#: of the calf flank in the FLANK_MM below it
+SHOULDER_FRACTION = 0.35
+FLANK_MM = 150.0
 #: re-detection keeps C within this distance of its previous height, mm
 C_HINT_MM = 40.0
 
@@ -99,13 +101,17 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
 
     True maxima: local maxima of the smoothed girth with >= 1 mm prominence, bottom up.
     Shoulders (for calves whose girth only levels off before rising to the knee): local
-    minima of a positive slope below :data:`SHOULDER_SLOPE`, bottom up.  Returns the two
+    minima of the slope below :data:`SHOULDER_FRACTION` of the steepest slope
+    in the :data:`FLANK_MM` below, bottom up.  Returns the two
     index arrays.
     """
     peaks, _ = find_peaks(g, prominence=1.0)
     slope = np.gradient(g, heights)
     dips, _ = find_peaks(-slope)
-    shoulders = dips[(slope[dips] >= 0) & (slope[dips] < SHOULDER_SLOPE)]
+    spacing = float(np.median(np.diff(heights)))
+    reach = max(int(round(FLANK_MM / spacing)), 1)
+    flank = np.array([slope[max(i - reach, 0) : i + 1].max() for i in dips]) if dips.size else np.zeros(0)
+    shoulders = dips[slope[dips] < SHOULDER_FRACTION * flank]
     return peaks, shoulders
 
 

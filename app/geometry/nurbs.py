@@ -180,11 +180,15 @@ def evaluate_derivatives(
     dv = basis_function_derivatives(surface.knots_v, q, sv, v, 2)  # (3, N, q+1)
     iu = su[:, None] - p + np.arange(p + 1)
     iv = sv[:, None] - q + np.arange(q + 1)
-    patch = surface.homogeneous()[iu[:, :, None], iv[:, None, :]]  # (N, p+1, q+1, 4)
-    along_v = np.einsum("lnj,nijc->lnic", dv, patch, optimize=True)  # (3, N, p+1, 4)
+    flat_index = iu[:, :, None] * nv + iv[:, None, :]  # (N, p+1, q+1)
+    patch = surface.homogeneous().reshape(nu * nv, 4)[flat_index]  # (N, p+1, q+1, 4)
+    # contract v first: (N, p+1, 4, q+1) @ (N, 1, q+1, 3) -> (N, p+1, 4, 3 v-orders)
+    along_v = np.matmul(patch.transpose(0, 1, 3, 2), dv.transpose(1, 2, 0)[:, None])
+    # then u: (N, 3 u-orders, p+1) @ (N, p+1, 4*3) -> (N, 3, 4, 3): [n, k, coord, l]
+    both = np.matmul(du.transpose(1, 0, 2), along_v.reshape(len(u), p + 1, 12)).reshape(len(u), 3, 4, 3)
 
     def a(k: int, l: int) -> np.ndarray:
-        return np.einsum("ni,nic->nc", du[k], along_v[l])
+        return both[:, k, :, l]
 
     a00, a10, a01, a20, a11, a02 = a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)
     w, wu, wv = a00[:, 3:], a10[:, 3:], a01[:, 3:]

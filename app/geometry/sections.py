@@ -109,6 +109,9 @@ def mesh_section_segments(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Intersect a triangle mesh with the planes ``z = heights`` all at once.
 
+    A plane crosses a triangle when ``z_min < h <= z_max``; the one corner on its own
+    side of the plane (the "lone" corner) and the two edges leaving it give the segment.
+
     Parameters
     ----------
     vertices : (n, 3) float, mm.  faces : (f, 3) int.  heights : (k,) ascending.
@@ -120,31 +123,39 @@ def mesh_section_segments(
     segments : (s, 2, 2) float
         Segment end points (x, y), mm.
     """
-    z = vertices[:, 2]
-    # plane index per vertex (first plane above it), then per face: planes lo..hi-1 cross it
+    x = np.ascontiguousarray(vertices[:, 0])
+    y = np.ascontiguousarray(vertices[:, 1])
+    z = np.ascontiguousarray(vertices[:, 2])
+    # plane index per vertex (first plane above it); planes lo..hi-1 cross a face
     level = np.searchsorted(heights, z, side="right")[faces]
     lo = level.min(axis=1)
     hi = level.max(axis=1)
-    tri, plane = _plane_pairs(lo, hi)
-    if tri.size == 0:
+    crossing = np.flatnonzero(hi > lo)
+    pair_face, plane = _plane_pairs(lo[crossing], hi[crossing])
+    if plane.size == 0:
         return plane, np.empty((0, 2, 2))
+    corners = faces[crossing[pair_face]]  # (s, 3)
     h = heights[plane]
-    tz = z[faces[tri]]
+    tz = z[corners]
     above = tz >= h[:, None]
-    n_above = above.sum(axis=1)
-    # exactly one vertex is on its own side of the plane: the "lone" vertex
-    lone = np.where(n_above == 1, above.argmax(axis=1), (~above).argmax(axis=1))
-    corners = faces[tri]
-    rows = np.arange(tri.size)
-    ia = corners[rows, lone]
-    ib = corners[rows, (lone + 1) % 3]
-    ic = corners[rows, (lone + 2) % 3]
-    va, vb, vc = vertices[ia], vertices[ib], vertices[ic]
-    tb = (h - va[:, 2]) / (vb[:, 2] - va[:, 2])
-    tc = (h - va[:, 2]) / (vc[:, 2] - va[:, 2])
-    p = va[:, :2] + tb[:, None] * (vb[:, :2] - va[:, :2])
-    q = va[:, :2] + tc[:, None] * (vc[:, :2] - va[:, :2])
-    return plane, np.stack([p, q], axis=1)
+    # exactly one corner is on its own side: the lone one
+    lone_mask = above ^ (above.sum(axis=1) == 2)[:, None]
+    lone = lone_mask[:, 1].astype(np.int64) + 2 * lone_mask[:, 2]
+    base = np.arange(plane.size) * 3
+    flat = corners.ravel()
+    ia = flat[base + lone]
+    ib = flat[base + (lone + 1) % 3]
+    ic = flat[base + (lone + 2) % 3]
+    za = z[ia]
+    tb = (h - za) / (z[ib] - za)
+    tc = (h - za) / (z[ic] - za)
+    xa, ya = x[ia], y[ia]
+    segments = np.empty((plane.size, 2, 2))
+    segments[:, 0, 0] = xa + tb * (x[ib] - xa)
+    segments[:, 0, 1] = ya + tb * (y[ib] - ya)
+    segments[:, 1, 0] = xa + tc * (x[ic] - xa)
+    segments[:, 1, 1] = ya + tc * (y[ic] - ya)
+    return plane, segments
 
 
 def _fill_polar_gaps(radii: np.ndarray) -> np.ndarray:
