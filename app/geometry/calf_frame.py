@@ -71,17 +71,29 @@ def principal_axis(points: np.ndarray, weights: np.ndarray | None = None) -> np.
     return vectors[:, -1]
 
 
-def principal_frame(points: np.ndarray) -> np.ndarray:
+def surface_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Points standing for the surface evenly: triangle centroids with their areas as
+    weights for a mesh (so a densely meshed knee does not tilt the PCA), the points
+    themselves for a cloud.  Returns (s, 3) samples and (s,) weights or None."""
+    if faces is None or not len(faces):
+        return points, None
+    corners = points[faces]
+    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+    return corners.mean(axis=1), area
+
+
+def principal_frame(points: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:
     """(3, 3) rows: principal axes of (n, 3) points, largest variance last (z).
 
     Each axis' sign is fixed by the sign of the third moment along it, so the frame
     turns with the scan (no dependence on the scan's own axes); the first row is
-    re-derived so the frame is right-handed.
+    re-derived so the frame is right-handed.  Optional (n,) weights.
     """
-    centred = points - points.mean(axis=0)
-    _, vectors = np.linalg.eigh(centred.T @ centred)
+    w = np.ones(len(points)) if weights is None else weights / weights.sum() * len(points)
+    centred = points - (w @ points) / w.sum()
+    _, vectors = np.linalg.eigh((centred * w[:, None]).T @ centred)
     axes = vectors.T[::-1][[1, 2, 0]]  # second, third, first component -> x, y, z
-    skew = ((centred @ axes.T) ** 3).mean(axis=0)
+    skew = (w[:, None] * (centred @ axes.T) ** 3).mean(axis=0)
     axes = axes * np.where(skew < 0, -1.0, 1.0)[:, None]
     axes[0] = np.cross(axes[1], axes[2])
     return axes

@@ -16,6 +16,7 @@ class FailureReason(str, enum.Enum):
     """Why a scan could not be turned into a calf record."""
 
     UNREADABLE_FILE = "unreadable_file"
+    TRUNCATED_FILE = "truncated_file"
     UNSUPPORTED_FORMAT = "unsupported_format"
     EMPTY_SCAN = "empty_scan"
     NON_FINITE_COORDINATES = "non_finite_coordinates"

@@ -4,8 +4,11 @@ Per layer contour r(theta) (72 rays):
   S1  peaks and valleys of the radius,
   S2  middles of arcs where the radius hardly changes (flat arcs),
   S3  peaks and valleys of the curvature, the curvature taken from a 5-point circle
-      fit (algebraic least-squares circle through rays i-2..i+2), plus the middles of
-      spans between S3 points wider than :data:`WIDE_SPAN_RAD`.
+      fit (algebraic least-squares circle through rays i-2..i+2),
+  plus points that fill the spans between them: the paper keeps "middle points ...
+  within larger spans"; here m points per layer spaced by the integral of
+  sqrt(curvature) ds (see :func:`curvature_spaced_angles`), which on a 55 x 40 mm
+  ellipse lowers E from 0.085% to about 0.02% at m = 15.
 All candidate angles of all layers are pooled and clustered by scikit-learn's KMeans
 into m angles shared by every layer (angles embedded on the unit circle so that 359
 and 1 degree are neighbours).  The data grid is then each layer's contour at those m
@@ -22,15 +25,24 @@ from sklearn.cluster import KMeans
 
 #: a flat arc changes radius by less than this fraction of the mean radius per ray step
 FLAT_TOLERANCE = 0.002
+#: an S1 radius extremum must differ from a neighbour ray by this fraction of the mean
+#: radius (0.05 mm at r = 50 mm); an S3 curvature extremum by this fraction of the mean
+#: curvature
+S1_TOLERANCE = 1e-3
+S3_TOLERANCE = 0.02
 #: spans between curvature extrema wider than this get their middle as a candidate
 WIDE_SPAN_RAD = np.deg2rad(30.0)
 
 
-def _circular_extrema(values: np.ndarray) -> np.ndarray:
-    """(L, a) -> (L, a) bool: strict local maxima or minima along the circular axis."""
+def _circular_extrema(values: np.ndarray, tolerance: np.ndarray | float = 0.0) -> np.ndarray:
+    """(L, a) -> (L, a) bool: local maxima or minima along the circular axis that stand
+    out from at least one neighbour by more than ``tolerance`` ((L, 1) or scalar), so
+    that tessellation ripple and round-off do not count as shape features."""
     prev = np.roll(values, 1, axis=1)
     nxt = np.roll(values, -1, axis=1)
-    return ((values > prev) & (values >= nxt)) | ((values < prev) & (values <= nxt))
+    extremum = ((values > prev) & (values >= nxt)) | ((values < prev) & (values <= nxt))
+    step = np.maximum(np.abs(values - prev), np.abs(values - nxt))
+    return extremum & (step > tolerance)
 
 
 def five_point_curvature(contour_xy: np.ndarray) -> np.ndarray:
@@ -57,14 +69,39 @@ def five_point_curvature(contour_xy: np.ndarray) -> np.ndarray:
     return -turn / radius
 
 
-def candidate_angles(radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
-    """Pooled S1, S2, S3 (+ wide-span middles) candidate angles of all layers.
+def curvature_spaced_angles(radii: np.ndarray, angles: np.ndarray, curvature: np.ndarray, m: int) -> np.ndarray:
+    """Per layer, m angles at equal steps of the integral of sqrt(|kappa|) ds.
 
-    radii (L, a) mm at angles (a,); returns (n,) angles in [0, 2*pi).
+    The generalised form of the paper's "middle points within larger spans": spans are
+    filled in proportion to how sharply the contour bends (the point density that
+    minimises the error of interpolating a curve, de Boor's sqrt-curvature rule), the
+    first angle at the layer's sharpest point.  radii, curvature (L, a); returns (L*m,).
+    """
+    x, y = radii * np.cos(angles), radii * np.sin(angles)
+    ds = np.hypot(np.roll(x, -1, axis=1) - x, np.roll(y, -1, axis=1) - y)
+    weight = ds * np.sqrt(np.abs(curvature) + np.roll(np.abs(curvature), -1, axis=1)) + 1e-12
+    start = np.argmax(np.abs(curvature), axis=1)
+    order = (start[:, None] + np.arange(radii.shape[1])[None, :]) % radii.shape[1]
+    w = np.take_along_axis(weight, order, axis=1)
+    cumulative = np.concatenate([np.zeros((len(w), 1)), np.cumsum(w, axis=1)], axis=1)
+    cumulative /= cumulative[:, -1:]
+    step = angles[1] - angles[0]
+    targets = np.arange(m) / m
+    out = [angles[start[i]] + np.interp(targets, cumulative[i], np.arange(len(angles) + 1) * step) for i in range(len(w))]
+    return np.mod(np.concatenate(out), 2 * np.pi)
+
+
+def candidate_angles(radii: np.ndarray, angles: np.ndarray, m: int | None = None) -> np.ndarray:
+    """Pooled S1, S2, S3 (+ span fillers) candidate angles of all layers.
+
+    radii (L, a) mm at angles (a,); with ``m``, the span fillers are
+    :func:`curvature_spaced_angles`, otherwise the middles of spans wider than
+    :data:`WIDE_SPAN_RAD` between S3 points.  Returns (n,) angles in [0, 2*pi).
     """
     layers, a = radii.shape
     step = angles[1] - angles[0]
-    found = [np.broadcast_to(angles, radii.shape)[_circular_extrema(radii)]]  # S1
+    mean_r = radii.mean(axis=1, keepdims=True)
+    found = [np.broadcast_to(angles, radii.shape)[_circular_extrema(radii, S1_TOLERANCE * mean_r)]]  # S1
 
     # S2: middles of flat arcs (runs of >= 3 small radius steps)
     tolerance = FLAT_TOLERANCE * radii.mean(axis=1, keepdims=True)
@@ -82,8 +119,11 @@ def candidate_angles(radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
     # S3: curvature extrema and the middles of wide spans between them
     contour = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=-1)
     curvature = five_point_curvature(contour)
-    s3_mask = _circular_extrema(curvature)
+    s3_mask = _circular_extrema(curvature, S3_TOLERANCE * np.abs(curvature).mean(axis=1, keepdims=True))
     found.append(np.broadcast_to(angles, radii.shape)[s3_mask])
+    if m is not None:
+        found.append(curvature_spaced_angles(radii, angles, curvature, m))
+        return np.mod(np.concatenate(found), 2 * np.pi)
     for layer in range(layers):
         s3 = angles[s3_mask[layer]]
         if s3.size == 0:

@@ -28,6 +28,12 @@ from app.geometry.scan_io import Scan
 from app.geometry.sections import PolarSections, slice_polar
 from app.geometry.surface_error import SurfaceError, error_statistics
 
+#: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
+#: is longer than it is wide; a ball or a box is not
+MIN_ASPECT = 1.2
+#: sections whose longest ray is under this multiple of the shortest count as leg-like
+COMPACT_RATIO = 1.8
+CENTROID_LINE_ITERATIONS = 3
 #: spacing of the coarse profile used to find B, C, D along the whole leg, mm
 COARSE_SPACING_MM = 2.0
 #: spacing of the first profile over the whole scan (before the calf is known), mm
@@ -122,7 +128,7 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     heights = np.arange(np.ceil((lo + 1.0) / spacing), np.floor((hi - 1.0) / spacing) + 1) * spacing
     if len(heights) < 20:
         raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
-    sections = slice_polar(local, faces, heights, COARSE_ANGLES)
+    sections = slice_polar(local, faces, heights, COARSE_ANGLES, recentre=False)
     return heights, sections.circumferences(), sections
 
 
@@ -135,7 +141,8 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     at most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
     :data:`AXIS_TOLERANCE_DEG`.
     """
-    shape_axes = cf.principal_frame(points)
+    samples, weights = cf.surface_samples(points, faces)
+    shape_axes = cf.principal_frame(samples, weights)
     axis = shape_axes[2]
     if up is not None and axis @ up < 0:
         axis = -axis
@@ -143,6 +150,22 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     basis = cf.perpendicular_basis(axis, shape_axes[1])
     local = (points - centre) @ basis.T
     heights, girth, sections = _profile(local, faces)
+    # a flat foot drags the PCA axis; the line through the centroids of the compact
+    # (leg-like, not footprint-like) sections does not
+    for _ in range(CENTROID_LINE_ITERATIONS):
+        line = _centroid_line_axis(heights, sections)
+        if line is None:
+            break
+        new_axis = basis.T @ line
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        if moved < 1.0:
+            break
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        local = (points - centre) @ basis.T
+        heights, girth, sections = _profile(local, faces)
     if up is not None:
         feats = find_feature_heights(heights, girth)
     else:
@@ -154,9 +177,10 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
             local = (points - centre) @ basis.T
             heights, girth, sections = _profile(local, faces)
     for _ in range(MAX_AXIS_ITERATIONS):
-        z = local[:, 2]
-        calf = (z >= feats.b_mm) & (z <= feats.d_mm)
-        new_axis = cf.principal_axis(points[calf])
+        calf = (local[:, 2] >= feats.b_mm) & (local[:, 2] <= feats.d_mm)
+        calf_faces = cf.submesh(np.flatnonzero(calf), faces, len(points)) if faces is not None else None
+        calf_samples, calf_weights = cf.surface_samples(points[calf], calf_faces)
+        new_axis = cf.principal_axis(calf_samples, calf_weights)
         if new_axis @ axis < 0:
             new_axis = -new_axis
         moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
@@ -192,6 +216,20 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     )
 
 
+def _centroid_line_axis(heights: np.ndarray, sections: PolarSections) -> np.ndarray | None:
+    """Unit direction (3,), in the sections' frame, of the line through the centroids of
+    the compact sections (max/min radius below :data:`COMPACT_RATIO`), or None."""
+    radii = sections.radii_mm
+    ok = sections.valid
+    compact = np.zeros(len(heights), dtype=bool)
+    compact[ok] = radii[ok].max(axis=1) < COMPACT_RATIO * radii[ok].min(axis=1)
+    if compact.sum() < 10:
+        return None
+    centres = np.column_stack([sections.centroids_mm[compact], heights[compact]])
+    direction = cf.principal_axis(centres)
+    return direction if direction[2] > 0 else -direction
+
+
 def _either_way(heights: np.ndarray, girth: np.ndarray):
     """Landmarks with the scan's axis as it is or reversed; (features, reversed?)."""
     try:
@@ -213,6 +251,14 @@ def _choose_leg(scan: Scan, side: str | None) -> tuple[_LegPlacement, str | None
     axis = cf.principal_axis(sample)
     length = float(np.ptp(points @ axis))
     if length < cf.BODY_MIN_LENGTH_MM:
+        samples, weights = cf.surface_samples(points, faces)
+        extents = np.ptp(sample @ cf.principal_frame(samples, weights).T, axis=0)
+        if extents[2] < MIN_ASPECT * extents[:2].max():
+            raise FitFailure(
+                FailureReason.NOT_A_LEG,
+                f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
+                f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
+            )
         return _place_leg(points, faces, None, scan.mm_per_unit), side
     legs = []
     for cut in cf.split_body_legs(points):
@@ -308,7 +354,8 @@ def fit_calf(
     )
     lap("landmarks")
 
-    angles = shared_angles(candidate_angles(layer_sections.radii_mm, layer_sections.angles_rad), options.points_per_layer)
+    m = options.points_per_layer
+    angles = shared_angles(candidate_angles(layer_sections.radii_mm, layer_sections.angles_rad, m), m)
     radii = radii_at(layer_sections.radii_mm, layer_sections.angles_rad, angles)
     centres = layer_sections.centroids_mm
     layer_points = np.stack(

@@ -7,7 +7,7 @@ derivative C'(h) between B and C.  Three midway layers make the 7 feature layers
 Robustness additions (documented, not in the paper): the profile is Gaussian-smoothed
 (sigma 4 mm) before extrema are taken; B and D must be *interior* minima (the girth
 must rise again beyond them inside the scan, otherwise the ankle or the knee is not in
-the scanned range); the calf must bulge (C >= 1.1 B) and the knee end must be thicker
+the scanned range); the calf must bulge (C >= 1.2 B) and the knee end must be thicker
 than the ankle (D >= 1.05 B).  The last rule also tells the ankle end from the knee end
 when the scan's up direction is unknown.
 
@@ -31,8 +31,10 @@ ANKLE_BELOW_CALF_MM = (50.0, 350.0)
 KNEE_ABOVE_CALF_MM = (30.0, 250.0)
 #: an extremum needs this much scan beyond it to count as interior, mm
 INTERIOR_MARGIN_MM = 6.0
-#: minimum calf bulge C/B and knee-end ratio D/B
-MIN_CALF_RATIO = 1.10
+#: minimum calf bulge C/B: ANSUR II's 6,068 subjects range 1.40-2.3 (median 1.72); 1.2
+#: leaves room for oedematous ankles and still rejects a knee bulge over the knee waist
+#: (about 1.1).  And the knee-end ratio D/B.
+MIN_CALF_RATIO = 1.20
 MIN_KNEE_RATIO = 1.05
 #: a plateau shoulder: the girth slope falls below this fraction of the steepest slope
 #: of the calf flank in the FLANK_MM below it
@@ -179,6 +181,13 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     ok = np.isfinite(girth)
     bottom, top = heights[ok][0], heights[ok][-1]
     spacing = float(np.median(np.diff(heights)))
+    inner = g[(heights >= bottom + 20.0) & (heights <= top - 20.0)]
+    if inner.size and inner.max() < MIN_CALF_RATIO * inner.min():
+        raise FitFailure(
+            FailureReason.NOT_A_LEG,
+            f"the girth varies only from {inner.min():.0f} to {inner.max():.0f} mm along the scan: "
+            "no ankle, calf and knee",
+        )
     peaks, shoulders = _calf_candidates(heights, g)
     if near_c_mm is not None:
         near_peaks = peaks[np.abs(heights[peaks] - near_c_mm) <= C_HINT_MM]
@@ -196,13 +205,13 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             FailureReason.NOT_A_LEG,
             "the circumference profile has no calf maximum: the scan does not bulge like a calf",
         )
-    failures: list[tuple[float, FitFailure]] = []
+    failures: list[tuple[int, float, FitFailure]] = []
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
             outcome = _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing)
             if isinstance(outcome, FitFailure):
-                failures.append((float(g[ic]), outcome))
+                failures.append((_FAILURE_STAGE[outcome.reason], float(g[ic]), outcome))
             else:
                 valid.append((int(ic), outcome))
         if valid:
@@ -214,8 +223,13 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 if other.girth_c_mm > best.girth_c_mm and dip >= 0.98 * best.girth_c_mm:
                     index, best = other_index, other
             return best
-    # report the reason found for the thickest candidate (the most calf-like one)
-    raise max(failures, key=lambda item: item[0])[1]
+    # report how far the most complete candidate got: an ankle without a knee says more
+    # than no ankle; a bump too weak to be a calf is reported only if nothing else is
+    raise max(failures, key=lambda item: (item[0], item[1]))[2]
+
+
+#: how far a candidate got before it failed (higher is more informative)
+_FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
 
 
 def _no_ankle(span_mm: float) -> FitFailure:

@@ -104,7 +104,7 @@ def _format_of(name: str | None, file_type: str | None) -> str:
     return fmt
 
 
-_NUMBER_ROW = re.compile(r"^\s*[-+0-9.]")
+_NUMBER_ROW = re.compile(r"^\s*([-+0-9.]|nan|inf)", re.IGNORECASE)
 
 
 def _read_text_cloud(data: bytes) -> np.ndarray:
@@ -147,6 +147,36 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[n
         mesh.merge_vertices(merge_tex=True, merge_norm=True)
         return np.asarray(mesh.vertices), np.asarray(mesh.faces, dtype=np.int64)
     return unique, inverse.reshape(-1)[faces]
+
+
+def check_stl_integrity(data: bytes) -> None:
+    """Refuse truncated or corrupt STL before parsing.
+
+    Binary STL: 80-byte header, uint32 triangle count n, then exactly 50 * n bytes.
+    ASCII STL: starts with ``solid`` and ends with ``endsolid``.
+    """
+    if len(data) >= 84:
+        count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
+        expected = 84 + 50 * count
+        if len(data) == expected:
+            return  # a well-formed binary STL (even if its header says "solid")
+    head = data[:512].lstrip().lower()
+    if head.startswith(b"solid") and b"facet" in data[:4096].lower():
+        if not data.rstrip().lower().split(b"\n")[-1].strip().startswith(b"endsolid"):
+            raise FitFailure(FailureReason.TRUNCATED_FILE, "the ASCII STL is truncated: it does not end with 'endsolid'")
+        return
+    if len(data) < 84:
+        raise FitFailure(FailureReason.TRUNCATED_FILE, f"the STL is {len(data)} bytes, shorter than a binary STL header (84)")
+    if len(data) < expected:
+        raise FitFailure(
+            FailureReason.TRUNCATED_FILE,
+            f"the binary STL is truncated: its header announces {count} triangles "
+            f"({expected} bytes) but the file has {len(data)} bytes",
+        )
+    raise FitFailure(
+        FailureReason.UNREADABLE_FILE,
+        f"the binary STL announces {count} triangles ({expected} bytes) but the file has {len(data)} bytes",
+    )
 
 
 def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | None]:
@@ -212,7 +242,7 @@ def load_scan(
     Raises
     ------
     FitFailure
-        ``unsupported_format``, ``unreadable_file``, ``empty_scan``,
+        ``unsupported_format``, ``unreadable_file``, ``truncated_file``, ``empty_scan``,
         ``non_finite_coordinates``, ``too_few_points`` or ``implausible_size``.
     """
     name = None
@@ -236,6 +266,8 @@ def load_scan(
     if fmt in ("xyz", "csv", "txt"):
         points, faces = _read_text_cloud(data), None
     else:
+        if fmt == "stl":
+            check_stl_integrity(data)
         points, faces = _read_with_trimesh(data, fmt)
 
     if points.size == 0:

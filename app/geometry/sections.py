@@ -14,8 +14,8 @@ in the mesh) are filled by periodic interpolation in the polar domain between th
 nearest hit rays (the paper's "curve fitting in the polar coordinate system").
 
 Point clouds: the points within half a spacing of each plane are binned by angle and a
-truncated Fourier series r(theta) (12 harmonics, ridge-regularised) is fitted by
-weighted least squares; it bridges gaps and averages scanner noise.
+truncated Fourier series r(theta) (12 harmonics, with a bending-energy penalty) is
+fitted by weighted least squares; it bridges gaps and averages scanner noise.
 
 Units: millimetres throughout.
 """
@@ -30,6 +30,8 @@ import numpy as np
 MIN_RAY_COVERAGE = 0.5
 #: harmonics of the polar Fourier fit used for point clouds
 POINT_CLOUD_HARMONICS = 12
+#: weight of the bending-energy penalty of the point-cloud Fourier fit
+FOURIER_SMOOTHING = 0.5
 
 
 @dataclass(frozen=True)
@@ -187,29 +189,12 @@ def _fill_polar_gaps(radii: np.ndarray) -> np.ndarray:
     return out
 
 
-def slice_mesh_polar(
-    vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int = 72
-) -> PolarSections:
-    """Polar-resampled sections of a triangle mesh (see module docstring).
+def _cast_rays(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray, n_angles: int) -> np.ndarray:
+    """Outermost hit radius of every (section, ray); NaN where a ray hits nothing.
 
-    vertices (n, 3) mm in the slicing frame; faces (f, 3); heights (k,) ascending mm.
+    plane (s,), seg (s, 2, 2) segments; centroids (k, 2) ray origins -> (k, n_angles).
     """
-    heights = np.asarray(heights, dtype=np.float64)
-    k = len(heights)
-    angles = ray_angles(n_angles)
-    plane, seg = mesh_section_segments(vertices, faces, heights)
-    centroids = np.full((k, 2), np.nan)
-    radii = np.full((k, n_angles), np.nan)
-    if plane.size == 0:
-        return PolarSections(heights, centroids, radii, angles, np.zeros(k))
-
-    length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
-    mid = seg.mean(axis=1)
-    total = np.bincount(plane, weights=length, minlength=k)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroids[:, 0] = np.bincount(plane, weights=length * mid[:, 0], minlength=k) / total
-        centroids[:, 1] = np.bincount(plane, weights=length * mid[:, 1], minlength=k) / total
-
+    k = len(centroids)
     a = seg[:, 0] - centroids[plane]
     b = seg[:, 1] - centroids[plane]
     theta_a = np.arctan2(a[:, 1], a[:, 0])
@@ -222,21 +207,55 @@ def slice_mesh_polar(
     j_hi = np.where(np.abs(dtheta) < 0.5 * np.pi, j_hi, j_lo - 1)  # skip segments through the centre
     seg_idx, ray = _plane_pairs(j_lo, j_hi + 1)
     phi = ray * step
-    d = np.stack([np.cos(phi), np.sin(phi)], axis=1)
-    a_r, ab = a[seg_idx], b[seg_idx] - a[seg_idx]
-    denom = d[:, 0] * ab[:, 1] - d[:, 1] * ab[:, 0]
+    dx, dy = np.cos(phi), np.sin(phi)
+    ax, ay = a[seg_idx, 0], a[seg_idx, 1]
+    abx, aby = b[seg_idx, 0] - ax, b[seg_idx, 1] - ay
+    denom = dx * aby - dy * abx
     with np.errstate(invalid="ignore", divide="ignore"):
-        t = -(d[:, 0] * a_r[:, 1] - d[:, 1] * a_r[:, 0]) / denom
+        t = -(dx * ay - dy * ax) / denom
     t = np.clip(np.nan_to_num(t, nan=0.5), 0.0, 1.0)
-    r = np.einsum("ij,ij->i", d, a_r + t[:, None] * ab)
+    r = dx * (ax + t * abx) + dy * (ay + t * aby)
     flat = plane[seg_idx] * n_angles + np.mod(ray, n_angles)
     best = np.full(k * n_angles, -np.inf)
     np.maximum.at(best, flat, r)
     best[~np.isfinite(best) | (best <= 0)] = np.nan
-    raw = best.reshape(k, n_angles)
-    coverage = np.isfinite(raw).mean(axis=1)
+    return best.reshape(k, n_angles)
+
+
+def slice_mesh_polar(
+    vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int = 72, recentre: bool = True
+) -> PolarSections:
+    """Polar-resampled sections of a triangle mesh (see module docstring).
+
+    vertices (n, 3) mm in the slicing frame; faces (f, 3); heights (k,) ascending mm.
+    Rays start at the perimeter-weighted centroid of the section's segments; with
+    ``recentre`` (default) they are cast again from the area centroid (the "weight
+    center") of the gap-filled contour, which a hole in the mesh does not bias.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    k = len(heights)
+    angles = ray_angles(n_angles)
+    plane, seg = mesh_section_segments(vertices, faces, heights)
+    centroids = np.full((k, 2), np.nan)
+    if plane.size == 0:
+        return PolarSections(heights, centroids, np.full((k, n_angles), np.nan), angles, np.zeros(k))
+
+    length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
+    mid = seg.mean(axis=1)
+    total = np.bincount(plane, weights=length, minlength=k)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroids[:, 0] = np.bincount(plane, weights=length * mid[:, 0], minlength=k) / total
+        centroids[:, 1] = np.bincount(plane, weights=length * mid[:, 1], minlength=k) / total
+    raw = _cast_rays(plane, seg, np.nan_to_num(centroids), n_angles)
     radii = _fill_polar_gaps(raw)
+    if recentre:
+        contour = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=-1)
+        centroids = centroids + polygon_centroid(contour)
+        raw = _cast_rays(plane, seg, np.nan_to_num(centroids), n_angles)
+        radii = _fill_polar_gaps(raw)
+    coverage = np.isfinite(raw).mean(axis=1)
     centroids[~np.isfinite(radii).all(axis=1)] = np.nan
+    radii[~np.isfinite(centroids).all(axis=1)] = np.nan
     return PolarSections(heights, centroids, radii, angles, coverage)
 
 
@@ -269,8 +288,10 @@ def _polar_fourier_fit(
     weight = (count > 0).astype(np.float64)
     design = _fourier_design(angles, harmonics)
     normal = np.einsum("ka,aj,al->kjl", weight, design, design)
-    ridge = np.full(design.shape[1], 1e-3)
-    ridge[0] = 1e-9
+    # bending-energy penalty ~ k^4 on harmonic k: negligible where data are dense, keeps
+    # the contour smooth across gaps
+    order = np.concatenate([[0.0], np.arange(1, harmonics + 1), np.arange(1, harmonics + 1)])
+    ridge = FOURIER_SMOOTHING * (order / harmonics) ** 4 + 1e-9
     normal += np.diag(ridge)[None] * n_angles
     rhs = np.einsum("ka,aj,ka->kj", weight, design, mean_r)
     coefficients = np.linalg.solve(normal, rhs[..., None])[..., 0]
@@ -338,9 +359,9 @@ def polygon_centroid(contour: np.ndarray) -> np.ndarray:
 
 
 def slice_polar(
-    points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, n_angles: int = 72
+    points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, n_angles: int = 72, recentre: bool = True
 ) -> PolarSections:
     """Dispatch to :func:`slice_mesh_polar` or :func:`slice_points_polar`."""
     if faces is not None and len(faces):
-        return slice_mesh_polar(points, faces, heights, n_angles)
+        return slice_mesh_polar(points, faces, heights, n_angles, recentre)
     return slice_points_polar(points, heights, n_angles)

@@ -1,0 +1,69 @@
+"""Scans that are not usable legs fail with their own specific reason, never a traceback."""
+
+import numpy as np
+import pytest
+import trimesh
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit import FitOptions, fit_scan
+from app.geometry.scan_io import load_scan
+from tests.conftest import REAL
+
+
+def _fit(mesh, **options):
+    return fit_scan(load_scan(mesh.export(file_type="stl"), file_type="stl"), FitOptions(**options))
+
+
+def _crop(mesh, keep):
+    faces = mesh.faces[keep(mesh.triangles_center)]
+    return trimesh.Trimesh(mesh.vertices, faces)
+
+
+@pytest.fixture(scope="module")
+def leg():
+    return trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+
+
+def _reason(mesh, **options):
+    with pytest.raises(FitFailure) as info:
+        _fit(mesh, **options)
+    assert info.value.detail
+    return info.value.reason
+
+
+def test_a_cube_is_not_a_leg():
+    assert _reason(trimesh.creation.box(extents=(300, 300, 300)).subdivide_to_size(10)) == FailureReason.NOT_A_LEG
+
+
+def test_a_sphere_is_not_a_leg():
+    assert _reason(trimesh.creation.icosphere(subdivisions=5, radius=150)) == FailureReason.NOT_A_LEG
+
+
+def test_a_straight_tube_has_no_calf():
+    tube = trimesh.creation.cylinder(radius=50, height=400, sections=128).subdivide_to_size(8)
+    assert _reason(tube) == FailureReason.NOT_A_LEG
+
+
+def test_a_scan_cut_above_the_ankle_has_no_ankle(leg):
+    # the ankle minimum of this leg lies at scan z ~ 108 mm: keep the lower leg from
+    # z = 170 mm (mid-shin) to z = 480 mm (above the knee)
+    cut = _crop(leg, lambda c: (c[:, 2] > 170) & (c[:, 2] < 480))
+    with pytest.raises(FitFailure) as info:
+        _fit(cut)
+    assert info.value.reason == FailureReason.NO_ANKLE
+    assert "no ankle minimum below the calf maximum" in info.value.detail
+
+
+def test_a_scan_cut_below_the_knee_has_no_knee(leg):
+    # calf maximum at scan z ~ 300 mm, minimum below the knee at ~ 364 mm
+    cut = _crop(leg, lambda c: c[:, 2] < 335)
+    with pytest.raises(FitFailure) as info:
+        _fit(cut)
+    assert info.value.reason == FailureReason.NO_KNEE
+    assert "knee" in info.value.detail
+
+
+def test_invalid_options_are_refused(leg):
+    assert _reason(leg, points_per_layer=2) == FailureReason.INVALID_OPTION
+    assert _reason(leg, side="middle") == FailureReason.INVALID_OPTION
+    assert _reason(leg, mode="magic") == FailureReason.INVALID_OPTION
