@@ -77,9 +77,13 @@ def surface_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.nd
     themselves for a cloud.  Returns (s, 3) samples and (s,) weights or None."""
     if faces is None or not len(faces):
         return points, None
-    corners = points[faces]
-    area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
-    return corners.mean(axis=1), area
+    a, b, c = points[faces[:, 0]], points[faces[:, 1]], points[faces[:, 2]]
+    e1, e2 = b - a, c - a
+    nx = e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1]
+    ny = e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2]
+    nz = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    area = 0.5 * np.sqrt(nx * nx + ny * ny + nz * nz)
+    return (a + b + c) / 3.0, area
 
 
 def principal_frame(points: np.ndarray, weights: np.ndarray | None = None) -> np.ndarray:

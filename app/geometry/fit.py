@@ -31,9 +31,12 @@ from app.geometry.surface_error import SurfaceError, error_statistics
 #: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
 #: is longer than it is wide; a ball or a box is not
 MIN_ASPECT = 1.2
-#: sections whose longest ray is under this multiple of the shortest count as leg-like
-COMPACT_RATIO = 1.8
-CENTROID_LINE_ITERATIONS = 3
+#: slabs of the surface whose spread is rounder than this (major/minor axis) are leg-like;
+#: a 55 x 40 mm ellipse is 1.4, a footprint 2.5 or more
+COMPACT_RATIO = 1.6
+SLAB_MM = 5.0
+PCA_SAMPLES = 30_000
+CENTROID_LINE_ITERATIONS = 4
 #: spacing of the coarse profile used to find B, C, D along the whole leg, mm
 COARSE_SPACING_MM = 2.0
 #: spacing of the first profile over the whole scan (before the calf is known), mm
@@ -132,7 +135,31 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     return heights, sections.circumferences(), sections
 
 
-def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float) -> _LegPlacement:
+def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):
+    """The same profile seen from the other end: z -> -z, x -> -x, y kept (a rotation
+    by 180 degrees about y), so that nothing has to be sliced again."""
+    n = len(sections.angles_rad)
+    rays = (n // 2 - np.arange(n)) % n  # theta -> pi - theta
+    mirrored = PolarSections(
+        -heights[::-1],
+        sections.centroids_mm[::-1] * np.array([-1.0, 1.0]),
+        sections.radii_mm[::-1][:, rays],
+        sections.angles_rad,
+        sections.coverage[::-1],
+    )
+    return -heights[::-1], girth[::-1], mirrored
+
+
+def _pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Area-weighted surface samples, thinned by a fixed stride to at most 30,000 (the
+    principal axes of 30k samples of a leg agree with all of them to ~0.1 degree)."""
+    samples, weights = cf.surface_samples(points, faces)
+    stride = max(len(samples) // PCA_SAMPLES, 1)
+    return samples[::stride], None if weights is None else weights[::stride]
+
+
+def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float,
+               pca: tuple[np.ndarray, np.ndarray | None] | None = None) -> _LegPlacement:
     """Axis by PCA, B/C/D, refined calf axis, anterior direction: the leg's calf frame.
 
     Paper section 2.1: PCA of the whole leg gives a first axis; B, C, D are found on
@@ -141,46 +168,42 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     at most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
     :data:`AXIS_TOLERANCE_DEG`.
     """
-    samples, weights = cf.surface_samples(points, faces)
+    samples, weights = pca if pca is not None else _pca_samples(points, faces)
     shape_axes = cf.principal_frame(samples, weights)
     axis = shape_axes[2]
     if up is not None and axis @ up < 0:
         axis = -axis
     centre = points.mean(axis=0)
     basis = cf.perpendicular_basis(axis, shape_axes[1])
-    local = (points - centre) @ basis.T
-    heights, girth, sections = _profile(local, faces)
     # a flat foot drags the PCA axis; the line through the centroids of the compact
-    # (leg-like, not footprint-like) sections does not
+    # (leg-like, not footprint-like) slabs of the surface does not
     for _ in range(CENTROID_LINE_ITERATIONS):
-        line = _centroid_line_axis(heights, sections)
+        line = _centroid_line_axis((samples - centre) @ basis.T, weights)
         if line is None:
             break
         new_axis = basis.T @ line
         if new_axis @ axis < 0:
             new_axis = -new_axis
         moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
-        if moved < 1.0:
-            break
         axis = new_axis
         basis = cf.perpendicular_basis(axis, basis[1])
-        local = (points - centre) @ basis.T
-        heights, girth, sections = _profile(local, faces)
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+    local = (points - centre) @ basis.T
+    heights, girth, sections = _profile(local, faces)
     if up is not None:
         feats = find_feature_heights(heights, girth)
     else:
         feats, flipped = _either_way(heights, girth)
         if flipped:  # the scan's axis pointed towards the foot
             axis = -axis
-            feats = find_feature_heights(-heights[::-1], girth[::-1])
             basis = cf.perpendicular_basis(axis, basis[1])
             local = (points - centre) @ basis.T
-            heights, girth, sections = _profile(local, faces)
+            heights, girth, sections = _mirror(heights, girth, sections)
     for _ in range(MAX_AXIS_ITERATIONS):
-        calf = (local[:, 2] >= feats.b_mm) & (local[:, 2] <= feats.d_mm)
-        calf_faces = cf.submesh(np.flatnonzero(calf), faces, len(points)) if faces is not None else None
-        calf_samples, calf_weights = cf.surface_samples(points[calf], calf_faces)
-        new_axis = cf.principal_axis(calf_samples, calf_weights)
+        sample_z = (samples - centre) @ basis[2]
+        calf = (sample_z >= feats.b_mm) & (sample_z <= feats.d_mm)
+        new_axis = cf.principal_axis(samples[calf], None if weights is None else weights[calf])
         if new_axis @ axis < 0:
             new_axis = -new_axis
         moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
@@ -216,17 +239,37 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     )
 
 
-def _centroid_line_axis(heights: np.ndarray, sections: PolarSections) -> np.ndarray | None:
-    """Unit direction (3,), in the sections' frame, of the line through the centroids of
-    the compact sections (max/min radius below :data:`COMPACT_RATIO`), or None."""
-    radii = sections.radii_mm
-    ok = sections.valid
-    compact = np.zeros(len(heights), dtype=bool)
-    compact[ok] = radii[ok].max(axis=1) < COMPACT_RATIO * radii[ok].min(axis=1)
+def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray | None:
+    """Direction (3,), in the samples' frame, of the line through the centroids of the
+    compact slabs of the surface.
+
+    The surface samples are binned into :data:`SLAB_MM` slabs along z; each slab's
+    weighted centroid and 2x2 covariance are accumulated with bincount.  A slab counts
+    as leg-like when its spread is nearly round (sqrt of the eigenvalue ratio below
+    :data:`COMPACT_RATIO`): a shin is, a footprint is not.  Returns None when fewer
+    than 10 slabs qualify.
+    """
+    w = np.ones(len(local_samples)) if weights is None else weights
+    z = local_samples[:, 2]
+    slab = np.floor((z - z.min()) / SLAB_MM).astype(np.int64)
+    n = int(slab.max()) + 1
+    total = np.bincount(slab, weights=w, minlength=n)
+    keep = total > 0
+    moments = {}
+    x, y = local_samples[:, 0], local_samples[:, 1]
+    for name, values in (("x", x), ("y", y), ("xx", x * x), ("yy", y * y), ("xy", x * y), ("z", z)):
+        moments[name] = np.bincount(slab, weights=w * values, minlength=n)[keep] / total[keep]
+    cxx = moments["xx"] - moments["x"] ** 2
+    cyy = moments["yy"] - moments["y"] ** 2
+    cxy = moments["xy"] - moments["x"] * moments["y"]
+    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy**2
+    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+    small, large = half_trace - root, half_trace + root
+    compact = (small > 0) & (large < COMPACT_RATIO**2 * np.maximum(small, 1e-12))
     if compact.sum() < 10:
         return None
-    centres = np.column_stack([sections.centroids_mm[compact], heights[compact]])
-    direction = cf.principal_axis(centres)
+    centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
+    direction = cf.principal_axis(centres, total[keep][compact])
     return direction if direction[2] > 0 else -direction
 
 
@@ -251,15 +294,15 @@ def _choose_leg(scan: Scan, side: str | None) -> tuple[_LegPlacement, str | None
     axis = cf.principal_axis(sample)
     length = float(np.ptp(points @ axis))
     if length < cf.BODY_MIN_LENGTH_MM:
-        samples, weights = cf.surface_samples(points, faces)
-        extents = np.ptp(sample @ cf.principal_frame(samples, weights).T, axis=0)
+        pca = _pca_samples(points, faces)
+        extents = np.ptp(pca[0] @ cf.principal_frame(*pca).T, axis=0)
         if extents[2] < MIN_ASPECT * extents[:2].max():
             raise FitFailure(
                 FailureReason.NOT_A_LEG,
                 f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
                 f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
             )
-        return _place_leg(points, faces, None, scan.mm_per_unit), side
+        return _place_leg(points, faces, None, scan.mm_per_unit, pca), side
     legs = []
     for cut in cf.split_body_legs(points):
         legs.append(

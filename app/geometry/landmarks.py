@@ -26,8 +26,9 @@ from app.geometry.errors import FailureReason, FitFailure
 
 #: Gaussian smoothing of the circumference profile, mm
 PROFILE_SMOOTHING_MM = 4.0
-#: B lies 50-350 mm below C; D lies 30-250 mm above C (adult lower legs, ANSUR II)
-ANKLE_BELOW_CALF_MM = (50.0, 350.0)
+#: B lies 100-350 mm below C (reference legs 190-265, MakeHuman range 219-246); D lies
+#: 30-250 mm above C (adult lower legs)
+ANKLE_BELOW_CALF_MM = (100.0, 350.0)
 KNEE_ABOVE_CALF_MM = (30.0, 250.0)
 #: an extremum needs this much scan beyond it to count as interior, mm
 INTERIOR_MARGIN_MM = 6.0
@@ -120,7 +121,7 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
 def _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing) -> FeatureHeights | FitFailure:
     """B and D around a calf candidate at index ``ic``, or the reason there are none.
 
-    B is the lowest local minimum of the girth 50-350 mm below C, D the lowest local
+    B is the lowest local minimum of the girth 100-350 mm below C, D the lowest local
     minimum 30-250 mm above C (or, when the girth only levels off, the bottom of that
     window); ``local_min`` (k,) bool marks the local minima of ``g``.
     """

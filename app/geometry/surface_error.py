@@ -192,7 +192,7 @@ def error_statistics(
         raise ValueError("no scan points between B and D")
     length = float(section_heights[-1] - section_heights[0])
     u, v, grid = dense_grid(surface, length)
-    tree = cKDTree(grid.reshape(-1, 3))
+    tree = cKDTree(grid.reshape(-1, 3), balanced_tree=False, compact_nodes=False)
     approx, iu, iv = algorithm1_distances(points, grid, tree)
     exact, _, _ = newton_distances(surface, points, u[iu], v[iv])
     index = np.clip(np.searchsorted(section_heights, points[:, 2]), 1, len(section_heights) - 1)
