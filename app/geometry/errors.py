@@ -47,5 +47,8 @@ class FitFailure(Exception):
         self.reason = FailureReason(reason)
         self.detail = detail
 
+    def __reduce__(self):  # picklable across the worker-process boundary
+        return (FitFailure, (self.reason, self.detail))
+
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return f"FitFailure({self.reason.value!r}, {self.detail!r})"

@@ -444,3 +444,13 @@ def fit_calf(
         options=options,
         timings=timings,
     )
+
+
+def check_scan(scan: Scan, options: FitOptions | None = None) -> dict:
+    """Quick acceptance test of a scan: the options are valid and the calf can be placed
+    (the leg found, B, C and D present).  Raises FitFailure with the reason otherwise;
+    returns the side and the calf's extent.  Costs the calf-frame stage of a fit."""
+    options = options or FitOptions()
+    options.validate()
+    leg, side = _choose_leg(scan, options.side)
+    return {"side": side, "c_mm": leg.c_mm, "d_mm": leg.d_mm, "anterior_cue": leg.frame.anterior_cue}

@@ -1,0 +1,36 @@
+"""Liveness and readiness."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Depends, Request
+from fastapi.concurrency import run_in_threadpool
+from sqlalchemy.orm import Session
+
+from app.api.deps import get_session
+from app.api.problems import problems
+from app.api.schemas import Health
+from app.db.migrate import current_revision, head_revision
+from app.db.repositories import ping
+from app.errors import Unavailable
+
+router = APIRouter(tags=["health"])
+
+
+@router.get("/livez", response_model=Health, summary="The process is up")
+def livez():
+    return {"status": "ok"}
+
+
+@router.get("/readyz", response_model=Health, summary="The database is reachable and migrated to head",
+            responses=problems(s503="database_unreachable or migrations_pending"))
+async def readyz(request: Request, session: Session = Depends(get_session)):
+    url = request.app.state.settings.resolved_database_url
+    try:
+        await run_in_threadpool(ping, session)
+        current = await run_in_threadpool(current_revision, url)
+    except Exception as exc:
+        raise Unavailable(f"the database is not reachable: {type(exc).__name__}", code="database_unreachable") from exc
+    head = head_revision(url)
+    if current != head:
+        raise Unavailable(f"the database is at revision {current}, the code expects {head}", code="migrations_pending")
+    return {"status": "ok", "database": request.app.state.engine_dialect, "revision": current}

@@ -1,0 +1,170 @@
+"""Records: list, read, import, delete, the surface as STL/GLB/glTF, measurements."""
+
+from __future__ import annotations
+
+from fastapi import APIRouter, Body, Depends, Query, Request, Response
+from fastapi.concurrency import run_in_threadpool
+from fastapi.encoders import jsonable_encoder
+from fastapi.responses import JSONResponse
+from sqlalchemy.orm import Session
+
+from app.api.deps import get_session
+from app.api.problems import problems
+from app.api.schemas import MeasurementsOut, RecordOut, RecordPage
+from app.errors import NotAcceptable, Unprocessable
+from app.services.records import SURFACE_MEDIA_TYPES, RecordService, surface_etag
+
+router = APIRouter(prefix="/api/v1", tags=["records"])
+
+MEDIA_TO_FORMAT = {media: fmt for fmt, media in SURFACE_MEDIA_TYPES.items()}
+
+
+def record_out(record) -> dict:
+    return {**record.body, "id": record.id, "source": record.source, "created_at": record.created_at, "scan_id": record.scan_id}
+
+
+def record_summary(record) -> dict:
+    return {
+        "id": record.id,
+        "source": record.source,
+        "side": record.side,
+        "error_index": record.error_index,
+        "created_at": record.created_at,
+        "landmarks": record.body.get("landmarks", {}),
+        "links": {
+            "self": f"/api/v1/records/{record.id}",
+            "surface": f"/api/v1/records/{record.id}/surface",
+            "measurements": f"/api/v1/records/{record.id}/measurements",
+        },
+    }
+
+
+@router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination)",
+            responses=problems(s400="invalid_cursor"))
+def list_records(
+    limit: int = Query(50, ge=1, le=500),
+    cursor: str | None = Query(None, description="next_cursor of the previous page"),
+    session: Session = Depends(get_session),
+):
+    rows, next_cursor = RecordService(session).page(limit, cursor)
+    return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
+
+
+@router.get("/records/{record_id}", response_model=RecordOut, summary="A record: control points, knots, weights, landmarks, fit statistics",
+            responses=problems(s404="record_not_found"))
+def get_record(record_id: str, session: Session = Depends(get_session)):
+    record = RecordService(session).get(record_id)
+    response = JSONResponse(jsonable(record_out(record)))
+    response.headers["ETag"] = f'"{record.etag}"'
+    return response
+
+
+def jsonable(value):
+    return jsonable_encoder(value)
+
+
+@router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
+             responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
+                        **problems(s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
+def import_record(data: dict = Body(..., description="a calf record (schema_version 1, see CalfRecordBody)"),
+                  session: Session = Depends(get_session)):
+    service = RecordService(session)
+    record = service.import_record(data)
+    session.commit()
+    return JSONResponse(jsonable(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
+
+
+@router.delete("/records/{record_id}", status_code=204, summary="Delete a record (its scan stays stored)",
+               responses=problems(s404="record_not_found"))
+def delete_record(record_id: str, session: Session = Depends(get_session)):
+    RecordService(session).delete(record_id)
+    session.commit()
+    return Response(status_code=204)
+
+
+def negotiate_surface_format(accept: str | None, query_format: str | None) -> str:
+    """?format= wins; otherwise the best of Accept (q-values honoured); */* means STL."""
+    if query_format:
+        fmt = query_format.lower()
+        if fmt not in SURFACE_MEDIA_TYPES:
+            raise NotAcceptable(f"format must be one of {', '.join(SURFACE_MEDIA_TYPES)}, not {query_format!r}")
+        return fmt
+    if not accept:
+        return "stl"
+    offers = []
+    for position, item in enumerate(accept.split(",")):
+        parts = [p.strip() for p in item.split(";")]
+        media, q = parts[0].lower(), 1.0
+        for param in parts[1:]:
+            if param.startswith("q="):
+                try:
+                    q = float(param[2:])
+                except ValueError:
+                    q = 0.0
+        offers.append((q, -position, media))
+    for q, _, media in sorted(offers, reverse=True):
+        if q <= 0:
+            continue
+        if media in MEDIA_TO_FORMAT:
+            return MEDIA_TO_FORMAT[media]
+        if media in ("*/*", "model/*"):
+            return "stl"
+    raise NotAcceptable(
+        f"cannot produce {accept!r}; this resource is available as {', '.join(SURFACE_MEDIA_TYPES.values())}"
+    )
+
+
+@router.get(
+    "/records/{record_id}/surface",
+    summary="The surface tessellated, in the original scan's coordinates (STL, GLB or glTF)",
+    response_class=Response,
+    responses={
+        200: {"description": "The mesh", "content": {m: {"schema": {"type": "string", "format": "binary"}} for m in SURFACE_MEDIA_TYPES.values()},
+              "headers": {"ETag": {"schema": {"type": "string"}}, "Content-Disposition": {"schema": {"type": "string"}}}},
+        304: {"description": "Not modified (If-None-Match matched the ETag)"},
+        **problems(s404="record_not_found", s406="not_acceptable: no supported media type in Accept / ?format=",
+                   s422="invalid_density, invalid_record"),
+    },
+)
+async def get_surface(
+    record_id: str,
+    request: Request,
+    file_format: str | None = Query(None, alias="format", description="stl | glb | gltf (overrides Accept)"),
+    around: int = Query(144, description="samples around the leg (8-1440)"),
+    along: int = Query(100, description="samples along the leg (2-2000)"),
+    session: Session = Depends(get_session),
+):
+    fmt = negotiate_surface_format(request.headers.get("accept"), file_format)
+    service = RecordService(session)
+    record = await run_in_threadpool(service.get, record_id)
+    etag = f'"{surface_etag(record.etag, fmt, around, along)}"'
+    matches = [tag.strip() for tag in (request.headers.get("if-none-match") or "").split(",")]
+    if etag in matches or "*" in matches:
+        return Response(status_code=304, headers={"ETag": etag})
+    data, _ = await run_in_threadpool(service.surface, record_id, fmt, around, along)
+    side = record.side or "leg"
+    filename = f"calf-{record.id[:12]}-{side}.{fmt}"
+    return Response(
+        content=data,
+        media_type=SURFACE_MEDIA_TYPES[fmt],
+        headers={"ETag": etag, "Content-Disposition": f'attachment; filename="{filename}"', "Vary": "Accept"},
+    )
+
+
+@router.get("/records/{record_id}/measurements", response_model=MeasurementsOut,
+            summary="Girths at B, B1, C, D and at any heights, measured on the surface itself; lengths between landmarks",
+            responses=problems(s404="record_not_found", s422="height_out_of_range, invalid_request"))
+async def get_measurements(
+    record_id: str,
+    heights: str | None = Query(None, description="comma-separated calf-frame heights in mm, e.g. 50,120.5"),
+    session: Session = Depends(get_session),
+):
+    extra: list[float] = []
+    if heights:
+        try:
+            extra = [float(h) for h in heights.split(",") if h.strip()]
+        except ValueError as exc:
+            raise Unprocessable(f"heights must be numbers in mm separated by commas, not {heights!r}", code="invalid_heights") from exc
+        if len(extra) > 200:
+            raise Unprocessable("at most 200 heights per request", code="invalid_heights")
+    return await run_in_threadpool(RecordService(session).measurements, record_id, extra)

@@ -1,0 +1,101 @@
+"""POST /api/v1/scans: upload a scan, get a fitting job."""
+
+from __future__ import annotations
+
+import asyncio
+
+from fastapi import APIRouter, Depends, Query, Request
+from fastapi.concurrency import run_in_threadpool
+from fastapi.responses import JSONResponse
+from fastapi.encoders import jsonable_encoder
+from sqlalchemy.orm import Session
+
+from app.api.deps import get_app_settings, get_runner, get_session, get_store
+from app.api.problems import problems
+from app.api.schemas import JobOut
+from app.errors import Unavailable
+from app.jobs.runner import EmbeddedRunner
+from app.services.fitting import parse_options, validate_scan_file
+from app.services.jobs import JobService, job_view
+from app.services.storage import ScanStore
+from app.services.uploads import MEDIA_TYPES, receive_upload
+from app.settings import Settings
+
+router = APIRouter(prefix="/api/v1", tags=["scans"])
+
+_SCAN_BODY = {"schema": {"type": "string", "format": "binary"}}
+UPLOAD_BODY = {
+    "requestBody": {
+        "required": True,
+        "description": "The scan: a multipart form (field `file`, optional fields `side`, `units`, `points`) "
+        "or the raw file with its media type (options as query parameters; application/octet-stream needs ?format=).",
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": ["file"],
+                    "properties": {
+                        "file": {"type": "string", "format": "binary"},
+                        "side": {"type": "string", "enum": ["left", "right"]},
+                        "units": {"type": "string", "enum": ["mm", "cm", "m"]},
+                        "points": {"type": "integer", "minimum": 4, "maximum": 36, "default": 15},
+                    },
+                }
+            },
+            **{media: _SCAN_BODY for media in sorted(MEDIA_TYPES)},
+            "application/octet-stream": _SCAN_BODY,
+        },
+    }
+}
+
+
+@router.post(
+    "/scans",
+    status_code=202,
+    response_model=JobOut,
+    summary="Upload a scan; a fitting job is queued",
+    openapi_extra=UPLOAD_BODY,
+    responses={
+        202: {"description": "Accepted: the scan is stored and a job queued; Location points at the job",
+              "headers": {"Location": {"schema": {"type": "string"}, "description": "/api/v1/jobs/{id}"}}},
+        **problems(
+            s400="empty_body, bad_request (malformed multipart, no 'file' field)",
+            s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB",
+            s415="unsupported_media_type / unsupported_format",
+            s422="the scan cannot be fitted, with the reason: unreadable_file, truncated_file, empty_scan, "
+            "non_finite_coordinates, too_few_points, implausible_size, not_a_leg, no_ankle, no_knee, "
+            "side_not_found, invalid_option",
+            s503="the upload check timed out",
+        ),
+    },
+)
+async def upload_scan(
+    request: Request,
+    side: str | None = Query(None, description="left | right: which leg of a whole-body scan"),
+    units: str | None = Query(None, description="mm | cm | m; detected from the extent when omitted"),
+    points: int | None = Query(None, ge=4, le=36, description="feature points per layer (paper: 8 or 15)"),
+    file_format: str | None = Query(None, alias="format", description="scan format for application/octet-stream"),
+    settings: Settings = Depends(get_app_settings),
+    store: ScanStore = Depends(get_store),
+    runner: EmbeddedRunner = Depends(get_runner),
+    session: Session = Depends(get_session),
+):
+    upload = await receive_upload(request.headers, request.stream(), store, settings.max_upload_bytes, file_format)
+    try:
+        fields = upload.fields
+        options = parse_options(side or fields.get("side"), units or fields.get("units"), points if points is not None else fields.get("points"))
+        try:
+            # the quick acceptance check runs in a worker process: reading the file and
+            # finding the calf (ankle, calf, knee); nothing is stored if it fails
+            await runner.run_in_worker(
+                validate_scan_file, str(upload.temp_path), upload.file_format, options, timeout=settings.validation_timeout_s
+            )
+        except asyncio.TimeoutError as exc:
+            raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
+        job, scan, reused = await run_in_threadpool(JobService(session).submit, upload, options, store)
+    except BaseException:
+        upload.discard()
+        raise
+    runner.notify()
+    body = jsonable_encoder(job_view(job, scan, reused))
+    return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})

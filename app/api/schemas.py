@@ -1,0 +1,106 @@
+"""Response and request bodies as documented in the OpenAPI document."""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from pydantic import BaseModel, ConfigDict, Field
+
+
+class Landmark(BaseModel):
+    height_mm: float = Field(description="calf-frame z; B is 0")
+    circumference_mm: float
+
+
+class Surface(BaseModel):
+    degree_u: int
+    degree_v: int
+    knots_u: list[float] = Field(description="nu + degree_u + 1 knots; u runs around the leg")
+    knots_v: list[float] = Field(description="nv + degree_v + 1 knots; v runs from B to D")
+    control_points: list[list[list[float]]] = Field(description="[nu][nv][3], mm, calf frame")
+    weights: list[list[float]] = Field(description="[nu][nv], all > 0")
+    periodic_u: bool = Field(description="closed around the leg: the first degree_u control columns repeat at the end")
+
+
+class CalfRecordBody(BaseModel):
+    """A calf record (see app.geometry.record for every field)."""
+
+    model_config = ConfigDict(extra="allow")
+    schema_version: int = 1
+    units: str = "mm"
+    side: str | None = None
+    surface: Surface
+    frame: list[list[float]] = Field(description="4x4: calf-frame mm -> the scan's own coordinates and units")
+    landmarks: dict[str, Landmark] = Field(default_factory=dict)
+    fit: dict = Field(default_factory=dict)
+
+
+class RecordOut(CalfRecordBody):
+    id: str
+    source: str = Field(description="fit | import")
+    created_at: datetime
+    scan_id: str | None = None
+
+
+class RecordSummary(BaseModel):
+    id: str
+    source: str
+    side: str | None
+    error_index: float | None
+    created_at: datetime
+    landmarks: dict[str, Landmark]
+    links: dict[str, str]
+
+
+class RecordPage(BaseModel):
+    items: list[RecordSummary]
+    next_cursor: str | None = Field(description="pass as ?cursor= for the next page; null on the last page")
+
+
+class JobError(BaseModel):
+    type: str
+    code: str
+    title: str
+    detail: str
+
+
+class JobOut(BaseModel):
+    id: str
+    status: str = Field(description="queued | running | succeeded | failed")
+    scan_id: str
+    scan_sha256: str
+    scan_reused: bool | None = Field(None, description="on upload: the same bytes were already stored")
+    options: dict
+    created_at: datetime
+    started_at: datetime | None
+    finished_at: datetime | None
+    attempts: int
+    stage_seconds: dict | None = Field(description="seconds per fitting stage, once succeeded")
+    error: JobError | None
+    record_id: str | None
+    links: dict[str, str]
+
+
+class GirthOut(BaseModel):
+    height_mm: float
+    circumference_mm: float = Field(description="perimeter of the surface's cross-section")
+    tape_circumference_mm: float = Field(description="perimeter of its convex hull (tape measure)")
+
+
+class LandmarkGirth(GirthOut):
+    scan_circumference_mm: float = Field(description="the girth measured on the scan when the record was fitted")
+
+
+class MeasurementsOut(BaseModel):
+    record_id: str
+    units: str
+    height_range_mm: list[float]
+    landmarks: dict[str, LandmarkGirth]
+    heights: list[GirthOut]
+    lengths_mm: dict[str, float] = Field(description="height differences along the calf axis between landmarks")
+
+
+class Health(BaseModel):
+    status: str
+    database: str | None = None
+    revision: str | None = None

@@ -1,0 +1,61 @@
+"""The FastAPI application: ``app = create_app()``; run with ``calf-nurbs serve``."""
+
+from __future__ import annotations
+
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+from fastapi.openapi.utils import get_openapi
+
+from app import __version__
+from app.api import health, jobs, records, scans
+from app.api.problems import add_problem_schema, install_problem_handlers
+from app.db.session import engine_for, session_factory
+from app.jobs.runner import EmbeddedRunner
+from app.services.storage import ScanStore
+from app.settings import Settings, get_settings
+
+DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf
+(Li et al., *Fast NURBS-based parametric modeling of human calves*), and serves the
+surface, its measurements and - later - compression stocking designs.
+
+Upload a scan (`POST /api/v1/scans`), poll the job it returns, then fetch the record,
+its surface (STL / GLB / glTF in the scan's own coordinates) and its measurements.
+Every error is an RFC 9457 `application/problem+json` document whose `type` ends in a
+stable code. Lengths are millimetres."""
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    settings = settings or get_settings()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI):
+        settings.data_dir.mkdir(parents=True, exist_ok=True)
+        url = settings.resolved_database_url
+        app.state.settings = settings
+        app.state.sessions = session_factory(url)
+        app.state.engine_dialect = engine_for(url).dialect.name
+        app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
+        app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s, settings.run_jobs)
+        await app.state.runner.start()
+        try:
+            yield
+        finally:
+            await app.state.runner.stop()
+
+    app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan)
+    install_problem_handlers(app)
+    for module in (scans, jobs, records, health):
+        app.include_router(module.router)
+
+    def openapi() -> dict:
+        if app.openapi_schema is None:
+            schema = get_openapi(title=app.title, version=app.version, description=app.description, routes=app.routes)
+            app.openapi_schema = add_problem_schema(schema)
+        return app.openapi_schema
+
+    app.openapi = openapi  # type: ignore[method-assign]
+    return app
+
+
+app = create_app()

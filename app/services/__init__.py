@@ -1,0 +1,1 @@
+"""Service layer: orchestrates uploads, fitting jobs, records and designs."""

@@ -1,0 +1,64 @@
+"""The fitting service layer: a stored scan file and options in, a calf record out.
+
+The functions below run inside worker processes (they only take and return plain,
+picklable values), so CPU-bound fitting never blocks the web server's event loop.
+"""
+
+from __future__ import annotations
+
+import time
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit import FitOptions, check_scan, fit_scan
+from app.geometry.record import record_from_fit
+from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
+
+DEFAULT_POINTS = 15
+
+
+def parse_options(side: str | None, units: str | None, points: str | int | None) -> dict:
+    """Validate upload options (form fields or query parameters) into the job's options."""
+
+    def invalid(detail: str) -> FitFailure:
+        return FitFailure(FailureReason.INVALID_OPTION, detail)
+
+    side = (side or "").strip().lower() or None
+    if side not in (None, "left", "right"):
+        raise invalid(f"side must be 'left' or 'right', not {side!r}")
+    units = (units or "").strip().lower() or None
+    if units not in (None, *UNIT_SCALE_MM):
+        raise invalid(f"units must be one of mm, cm, m, not {units!r}")
+    if points in (None, ""):
+        m = DEFAULT_POINTS
+    else:
+        try:
+            m = int(points)
+        except (TypeError, ValueError) as exc:
+            raise invalid(f"points must be an integer (8 or 15 in the paper), not {points!r}") from exc
+    options = {"side": side, "units": units, "points": m}
+    fit_options(options).validate()
+    return options
+
+
+def fit_options(options: dict) -> FitOptions:
+    return FitOptions(side=options.get("side"), points_per_layer=int(options.get("points", DEFAULT_POINTS)))
+
+
+def validate_scan_file(path: str, file_format: str, options: dict) -> dict:
+    """Worker: read the scan and place its calf; raises FitFailure with the reason."""
+    scan = load_scan(path, file_type=file_format, units=options.get("units"))
+    summary = check_scan(scan, fit_options(options))
+    summary.update({"units": scan.units, "n_points": int(len(scan.points_mm))})
+    return summary
+
+
+def fit_scan_file(path: str, file_format: str, options: dict) -> dict:
+    """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}."""
+    started = time.perf_counter()
+    scan = load_scan(path, file_type=file_format, units=options.get("units"))
+    loaded = time.perf_counter()
+    result = fit_scan(scan, fit_options(options))
+    seconds = time.perf_counter() - started
+    record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
+    stages = {"load": loaded - started, **{k: float(v) for k, v in result.timings.items()}, "total": seconds}
+    return {"record": record, "stage_seconds": stages}

@@ -1,0 +1,82 @@
+"""Uploads become stored scans and queued jobs; job views."""
+
+from __future__ import annotations
+
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+
+from app.db.models import Job, Scan
+from app.db.repositories import JobRepository, ScanRepository
+from app.errors import FAILURE_TITLES, PROBLEM_TYPE_PREFIX, NotFound
+from app.geometry.errors import FailureReason
+from app.services.storage import ScanStore
+from app.services.uploads import ReceivedUpload
+
+
+class JobService:
+    def __init__(self, session: Session):
+        self.session = session
+        self.scans = ScanRepository(session)
+        self.jobs = JobRepository(session)
+
+    def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore) -> tuple[Job, Scan, bool]:
+        """Store the scan once (content-addressed) and queue a job; commits.
+
+        Returns (job, scan, reused) - reused when the same bytes were already stored.
+        """
+        scan = self.scans.by_sha256(upload.sha256)
+        reused = scan is not None
+        newly_stored = False
+        if scan is None:
+            _, newly_stored = store.commit(upload.temp_path, upload.sha256)
+            try:
+                scan = self.scans.add(upload.sha256, upload.size_bytes, upload.file_format, upload.media_type)
+                self.session.commit()
+            except IntegrityError:  # the same bytes arrived concurrently: use that row
+                self.session.rollback()
+                scan = self.scans.by_sha256(upload.sha256)
+                reused = True
+                if scan is None:
+                    if newly_stored:
+                        store.remove(upload.sha256)
+                    raise
+        else:
+            upload.discard()
+        job = self.jobs.add(scan.id, options)
+        self.session.commit()
+        return job, scan, reused
+
+    def get(self, job_id: str) -> tuple[Job, Scan]:
+        job = self.jobs.get(job_id)
+        if job is None:
+            raise NotFound(f"no job {job_id!r}", code="job_not_found")
+        return job, self.scans.get(job.scan_id)
+
+
+def job_view(job: Job, scan: Scan, reused: bool | None = None) -> dict:
+    error = None
+    if job.error_code:
+        try:
+            title = FAILURE_TITLES[FailureReason(job.error_code)]
+        except ValueError:
+            title = "The fit could not be completed"
+        error = {"type": PROBLEM_TYPE_PREFIX + job.error_code, "code": job.error_code, "title": title, "detail": job.error_detail or ""}
+    links = {"self": f"/api/v1/jobs/{job.id}"}
+    if job.record_id:
+        links["record"] = f"/api/v1/records/{job.record_id}"
+    return {
+        "id": job.id,
+        "status": job.status,
+        "scan_id": scan.id,
+        "scan_sha256": scan.sha256,
+        "scan_reused": reused,
+        "options": job.options,
+        "created_at": job.created_at,
+        "started_at": job.started_at,
+        "finished_at": job.finished_at,
+        "attempts": job.attempts,
+        "stage_seconds": job.stage_seconds,
+        "error": error,
+        "record_id": job.record_id,
+        "links": links,
+    }

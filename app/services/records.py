@@ -1,0 +1,131 @@
+"""Records: import, read, list, delete, surface exports and surface measurements."""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+from datetime import datetime
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from app.db.models import Record
+from app.db.repositories import RecordRepository
+from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
+from app.geometry.errors import FitFailure
+from app.geometry.exchange import export_mesh, surface_mesh
+from app.geometry.landmarks import LANDMARK_NAMES
+from app.geometry.measure import girths, surface_height_range
+from app.geometry.record import CalfRecord
+
+SURFACE_MEDIA_TYPES = {"stl": "model/stl", "glb": "model/gltf-binary", "gltf": "model/gltf+json"}
+#: tessellation density bounds for exports (samples around / along the leg)
+AROUND_RANGE = (8, 1440)
+ALONG_RANGE = (2, 2000)
+
+
+def record_etag(body: dict) -> str:
+    """Strong validator of a record: SHA-256 of its canonical JSON."""
+    return hashlib.sha256(json.dumps(body, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def _parse(body: dict) -> CalfRecord:
+    try:
+        return CalfRecord.from_dict(body)
+    except FitFailure as failure:
+        raise from_fit_failure(failure) from failure
+
+
+class RecordService:
+    def __init__(self, session: Session):
+        self.session = session
+        self.records = RecordRepository(session)
+
+    def get(self, record_id: str) -> Record:
+        record = self.records.get(record_id)
+        if record is None:
+            raise NotFound(f"no record {record_id!r}", code="record_not_found")
+        return record
+
+    def import_record(self, data: dict) -> Record:
+        """Validate a record made elsewhere and store its normalized form."""
+        parsed = _parse(data)
+        body = parsed.to_dict()
+        return self.records.add(body, record_etag(body), "import", None)
+
+    def delete(self, record_id: str) -> None:
+        self.records.delete(self.get(record_id))
+
+    def page(self, limit: int, cursor: str | None) -> tuple[list[Record], str | None]:
+        after = decode_cursor(cursor) if cursor else None
+        rows = self.records.page(limit + 1, after)
+        more = len(rows) > limit
+        rows = rows[:limit]
+        next_cursor = encode_cursor(rows[-1].created_at, rows[-1].id) if more and rows else None
+        return rows, next_cursor
+
+    def surface(self, record_id: str, file_format: str, around: int, along: int) -> tuple[bytes, str]:
+        record = self.get(record_id)
+        parsed = _parse(record.body)
+        for name, value, (lo, hi) in (("around", around, AROUND_RANGE), ("along", along, ALONG_RANGE)):
+            if not lo <= value <= hi:
+                raise Unprocessable(f"{name} must be between {lo} and {hi}, not {value}", code="invalid_density")
+        data = export_mesh(surface_mesh(parsed.surface, parsed.frame, n_u=around, n_v=along), file_format)
+        return data, surface_etag(record.etag, file_format, around, along)
+
+    def measurements(self, record_id: str, extra_heights: list[float]) -> dict:
+        record = self.get(record_id)
+        parsed = _parse(record.body)
+        z0, z1 = surface_height_range(parsed.surface)
+        for h in extra_heights:
+            if not np.isfinite(h) or h < z0 - 1e-6 or h > z1 + 1e-6:
+                raise Unprocessable(
+                    f"height {h:g} mm is outside the modelled calf ({z0:.1f} to {z1:.1f} mm above B)",
+                    code="height_out_of_range",
+                )
+        names = [n for n in LANDMARK_NAMES if n in parsed.landmarks]
+        heights = [parsed.landmarks[n]["height_mm"] for n in names] + list(extra_heights)
+        measured = girths(parsed.surface, np.array(heights, dtype=float)) if heights else []
+        landmarks = {
+            name: {
+                "height_mm": g.height_mm,
+                "circumference_mm": g.circumference_mm,
+                "tape_circumference_mm": g.tape_mm,
+                "scan_circumference_mm": parsed.landmarks[name]["circumference_mm"],
+            }
+            for name, g in zip(names, measured[: len(names)])
+        }
+        lengths = {}
+        for a, b in zip(names[:-1], names[1:]):
+            lengths[f"{a}-{b}"] = parsed.landmarks[b]["height_mm"] - parsed.landmarks[a]["height_mm"]
+        if "B" in parsed.landmarks and "D" in parsed.landmarks:
+            lengths["B-D"] = parsed.landmarks["D"]["height_mm"] - parsed.landmarks["B"]["height_mm"]
+        return {
+            "record_id": record.id,
+            "units": "mm",
+            "height_range_mm": [z0, z1],
+            "landmarks": landmarks,
+            "heights": [
+                {"height_mm": g.height_mm, "circumference_mm": g.circumference_mm, "tape_circumference_mm": g.tape_mm}
+                for g in measured[len(names):]
+            ],
+            "lengths_mm": lengths,
+        }
+
+
+def surface_etag(record_etag_value: str, file_format: str, around: int, along: int) -> str:
+    return hashlib.sha256(f"{record_etag_value}:{file_format}:{around}:{along}".encode()).hexdigest()[:40]
+
+
+def encode_cursor(created_at: datetime, record_id: str) -> str:
+    return base64.urlsafe_b64encode(f"{created_at.isoformat()}|{record_id}".encode()).decode().rstrip("=")
+
+
+def decode_cursor(cursor: str) -> tuple[datetime, str]:
+    try:
+        raw = base64.urlsafe_b64decode(cursor + "=" * (-len(cursor) % 4)).decode()
+        stamp, record_id = raw.split("|", 1)
+        return datetime.fromisoformat(stamp), record_id
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise BadRequest("the page cursor is not one this service issued", code="invalid_cursor") from exc

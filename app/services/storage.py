@@ -1,0 +1,45 @@
+"""Content-addressed storage of original scans on disk.
+
+A scan is written to a temporary file while it is received and hashed, then moved to
+``<data_dir>/scans/<sha256[:2]>/<sha256>`` with an atomic rename.  The same bytes are
+stored once, however often they are uploaded; a stored file is never overwritten.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+
+class ScanStore:
+    def __init__(self, root: Path, tmp: Path):
+        self.root = root
+        self.tmp = tmp
+        self.root.mkdir(parents=True, exist_ok=True)
+        self.tmp.mkdir(parents=True, exist_ok=True)
+
+    def path_for(self, sha256: str) -> Path:
+        return self.root / sha256[:2] / sha256
+
+    def new_temp(self) -> tuple[int, Path]:
+        fd, name = tempfile.mkstemp(prefix="upload-", dir=self.tmp)
+        return fd, Path(name)
+
+    def exists(self, sha256: str) -> bool:
+        return self.path_for(sha256).is_file()
+
+    def commit(self, temp: Path, sha256: str) -> tuple[Path, bool]:
+        """Move a received file into place; returns (path, newly_stored)."""
+        final = self.path_for(sha256)
+        if final.is_file():
+            temp.unlink(missing_ok=True)
+            return final, False
+        final.parent.mkdir(parents=True, exist_ok=True)
+        os.chmod(temp, 0o440)
+        os.replace(temp, final)
+        return final, True
+
+    def remove(self, sha256: str) -> None:
+        """Undo a commit whose database row could not be written."""
+        self.path_for(sha256).unlink(missing_ok=True)

@@ -1,0 +1,56 @@
+"""Service settings (pydantic-settings, environment prefix ``CALF_``)."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+from pydantic import Field
+from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+class Settings(BaseSettings):
+    """Everything configurable, with the embedded defaults (SQLite under ./var, an
+    in-process pool of fitting workers).
+
+    CALF_DATA_DIR        data directory: the SQLite file and the stored scans (./var)
+    CALF_DATABASE_URL    SQLAlchemy URL; default sqlite:///<data_dir>/calf.db; may be
+                         postgresql+psycopg://...
+    CALF_WORKERS         fitting worker processes of the embedded runner (2)
+    CALF_MAX_UPLOAD_MB   largest scan accepted, counted on the bytes received (200)
+    CALF_RUN_JOBS        false: this process accepts uploads but fits nothing (an API
+                         container whose jobs a `calf-nurbs worker` process runs)
+    """
+
+    model_config = SettingsConfigDict(env_prefix="CALF_", env_file=None)
+
+    data_dir: Path = Path("./var")
+    database_url: str | None = None
+    workers: int = Field(2, ge=1, le=64)
+    max_upload_mb: float = Field(200.0, gt=0)
+    run_jobs: bool = True
+    validation_timeout_s: float = Field(60.0, gt=0)
+    job_timeout_s: float = Field(600.0, gt=0)
+
+    @property
+    def resolved_database_url(self) -> str:
+        if self.database_url:
+            return self.database_url
+        return f"sqlite:///{(self.data_dir / 'calf.db').resolve()}"
+
+    @property
+    def max_upload_bytes(self) -> int:
+        return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def scan_dir(self) -> Path:
+        return self.data_dir / "scans"
+
+    @property
+    def tmp_dir(self) -> Path:
+        return self.data_dir / "tmp"
+
+
+@lru_cache
+def get_settings() -> Settings:
+    return Settings()
