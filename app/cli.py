@@ -1,4 +1,4 @@
-"""Command line: ``calf-nurbs fit | export | serve | design``.
+"""Command line: ``calf-nurbs fit | export | serve | worker | design``.
 
 Exit codes: 0 success, 2 bad usage, 3 the scan/record cannot be processed (the reason
 is printed to stderr as JSON ``{"error": reason, "detail": ...}``).
@@ -90,8 +90,45 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     from app.db.migrate import upgrade_to_head
     from app.settings import get_settings
 
-    upgrade_to_head(get_settings().database_url)
+    upgrade_to_head(get_settings().resolved_database_url)
     uvicorn.run("app.main:app", host=args.host, port=args.port, workers=1)
+    return 0
+
+
+def _cmd_worker(args: argparse.Namespace) -> int:
+    """Run fitting jobs from the database without serving HTTP (an API process started
+    with CALF_RUN_JOBS=false hands its jobs to processes like this one)."""
+    import asyncio
+    import signal
+
+    from app.db.migrate import upgrade_to_head
+    from app.db.session import session_factory
+    from app.jobs.runner import EmbeddedRunner
+    from app.services.storage import ScanStore
+    from app.settings import get_settings
+
+    settings = get_settings()
+    upgrade_to_head(settings.resolved_database_url)
+
+    async def run() -> None:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, stop.set)
+        runner = EmbeddedRunner(
+            session_factory(settings.resolved_database_url),
+            ScanStore(settings.scan_dir, settings.tmp_dir),
+            settings.workers,
+            settings.job_timeout_s,
+        )
+        await runner.start()
+        print(json.dumps({"worker": "started", "processes": settings.workers}), flush=True)
+        try:
+            await stop.wait()
+        finally:
+            await runner.stop()
+
+    asyncio.run(run())
     return 0
 
 
@@ -132,6 +169,9 @@ def build_parser() -> argparse.ArgumentParser:
     serve.add_argument("--host", default="127.0.0.1")
     serve.add_argument("--port", type=int, default=8000)
     serve.set_defaults(func=_cmd_serve)
+
+    worker = sub.add_parser("worker", help="run queued fitting jobs (no HTTP); for CALF_RUN_JOBS=false API processes")
+    worker.set_defaults(func=_cmd_worker)
 
     design = sub.add_parser("design", help="design a graduated compression stocking from a record")
     design.add_argument("record")

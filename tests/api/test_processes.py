@@ -1,0 +1,125 @@
+"""The service as deployed: `calf-nurbs serve` (migrates, then serves) on embedded SQLite,
+and an API that runs no jobs plus a separate `calf-nurbs worker`, both on PostgreSQL."""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import httpx
+import pytest
+from sqlalchemy import create_engine, text
+
+from tests.conftest import REAL
+
+BIN = Path(sys.executable).parent
+PG_ADMIN_URL = os.environ.get("CALF_TEST_PG_ADMIN", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start(args: list[str], env: dict) -> subprocess.Popen:
+    return subprocess.Popen([str(BIN / "calf-nurbs"), *args], env={**os.environ, **env},
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def wait_ready(base: str, process: subprocess.Popen, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if process.poll() is not None:
+            raise AssertionError(f"server exited: {process.stdout.read()}")
+        try:
+            if httpx.get(f"{base}/readyz", timeout=2).status_code == 200:
+                return
+        except httpx.TransportError:
+            pass
+        time.sleep(0.2)
+    raise AssertionError("server did not become ready")
+
+
+def fit_one(base: str) -> dict:
+    data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
+    response = httpx.post(f"{base}/api/v1/scans", content=data, headers={"Content-Type": "model/stl"}, timeout=60)
+    assert response.status_code == 202, response.text
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline:
+        job = httpx.get(base + response.headers["location"], timeout=10).json()
+        if job["status"] in ("succeeded", "failed"):
+            return job
+        time.sleep(0.2)
+    raise AssertionError("job did not finish")
+
+
+def stop(*processes: subprocess.Popen) -> None:
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        try:
+            process.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            process.kill()
+
+
+def test_serve_migrates_an_empty_data_dir_then_fits(tmp_path):
+    port = free_port()
+    server = start(["serve", "--port", str(port)], {"CALF_DATA_DIR": str(tmp_path / "var"), "CALF_WORKERS": "1"})
+    try:
+        base = f"http://127.0.0.1:{port}"
+        wait_ready(base, server)
+        assert httpx.get(f"{base}/readyz").json()["revision"] == "0001"
+        job = fit_one(base)
+        assert job["status"] == "succeeded"
+        assert (tmp_path / "var" / "calf.db").is_file()
+    finally:
+        stop(server)
+
+
+@pytest.fixture
+def postgres_url():
+    """A fresh database on the machine's PostgreSQL server, dropped afterwards."""
+    name = f"calf_test_{uuid.uuid4().hex[:10]}"
+    admin = create_engine(PG_ADMIN_URL, isolation_level="AUTOCOMMIT")
+    with admin.connect() as conn:
+        conn.execute(text(f'CREATE DATABASE "{name}"'))
+    yield PG_ADMIN_URL.rsplit("/", 1)[0] + "/" + name
+    with admin.connect() as conn:
+        conn.execute(text(f'DROP DATABASE IF EXISTS "{name}" WITH (FORCE)'))
+    admin.dispose()
+
+
+def test_api_without_jobs_and_a_separate_worker_on_postgresql(tmp_path, postgres_url):
+    port = free_port()
+    shared = {"CALF_DATA_DIR": str(tmp_path / "data"), "CALF_DATABASE_URL": postgres_url}
+    api = start(["serve", "--port", str(port)], {**shared, "CALF_RUN_JOBS": "false", "CALF_WORKERS": "1"})
+    worker = None
+    try:
+        base = f"http://127.0.0.1:{port}"
+        wait_ready(base, api)
+        assert httpx.get(f"{base}/readyz").json()["database"] == "postgresql"
+        data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
+        response = httpx.post(f"{base}/api/v1/scans", content=data, headers={"Content-Type": "model/stl"}, timeout=60)
+        assert response.status_code == 202
+        time.sleep(1.0)
+        assert httpx.get(base + response.headers["location"]).json()["status"] == "queued"  # the API fits nothing
+        worker = start(["worker"], {**shared, "CALF_WORKERS": "1"})
+        deadline = time.monotonic() + 120
+        job = {}
+        while time.monotonic() < deadline:
+            job = httpx.get(base + response.headers["location"]).json()
+            if job["status"] in ("succeeded", "failed"):
+                break
+            time.sleep(0.2)
+        assert job["status"] == "succeeded", job
+        record = httpx.get(f"{base}/api/v1/records/{job['record_id']}").json()
+        assert record["fit"]["points_per_layer"] == 15 and record["source"] == "fit"
+    finally:
+        stop(*(p for p in (api, worker) if p is not None))
