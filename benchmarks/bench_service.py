@@ -18,7 +18,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 
@@ -39,7 +38,11 @@ SCANS = [
     ("vh_male_skin.glb", "right", "model/gltf-binary"),
 ]
 LATENCY_ROUNDS = 3  # sequential uploads per scan
-THROUGHPUT_JOBS = 18  # submitted at once
+THROUGHPUT_JOBS = 18  # submitted at once, from UPLOADERS concurrent clients
+UPLOADERS = 3
+POLL_S = 0.02  # job polling interval when measuring latency
+THROUGHPUT_POLL_S = 0.1  # ... and of the concurrent uploaders
+READER_PAUSE_S = 0.02  # the GET client's pause between requests
 
 
 def free_port() -> int:
@@ -63,13 +66,13 @@ def core_fit_seconds() -> dict:
     return out
 
 
-def wait_job(client: httpx.Client, location: str, timeout: float = 120.0) -> dict:
+def wait_job(client: httpx.Client, location: str, timeout: float = 120.0, poll: float | None = None) -> dict:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         job = client.get(location).json()
         if job["status"] in ("succeeded", "failed"):
             return job
-        time.sleep(0.01)
+        time.sleep(POLL_S if poll is None else poll)
     raise TimeoutError(location)
 
 
@@ -119,27 +122,30 @@ def main() -> None:
                     assert job["status"] == "succeeded", job
                     latency[file].append(time.perf_counter() - start)
 
-            # throughput: many jobs at once; meanwhile another client measures GETs
-            busy_get: list[float] = []
-            stop = threading.Event()
+            from concurrent.futures import ThreadPoolExecutor
 
-            def reader() -> None:
-                with httpx.Client(base_url=base, timeout=30.0) as other:
-                    while not stop.is_set() and len(busy_get) < 5000:
-                        start = time.perf_counter()
-                        other.get(f"/api/v1/records/{record_id}").raise_for_status()
-                        busy_get.append(time.perf_counter() - start)
-                        time.sleep(0.005)
+            def submit_and_wait(i: int, poll: float) -> dict:
+                with httpx.Client(base_url=base, timeout=120.0) as uploader:
+                    return wait_job(uploader, post_scan(uploader, *SCANS[i % len(SCANS)]), timeout=600, poll=poll)
 
-            thread = threading.Thread(target=reader)
+            # throughput: many uploads at once from a few clients that poll like real ones
             start = time.perf_counter()
-            thread.start()
-            locations = [post_scan(client, *SCANS[i % len(SCANS)]) for i in range(THROUGHPUT_JOBS)]
-            jobs = [wait_job(client, loc, timeout=600) for loc in locations]
+            with ThreadPoolExecutor(UPLOADERS) as uploaders:
+                jobs = list(uploaders.map(lambda i: submit_and_wait(i, THROUGHPUT_POLL_S), range(THROUGHPUT_JOBS)))
             elapsed = time.perf_counter() - start
-            stop.set()
-            thread.join()
             assert all(j["status"] == "succeeded" for j in jobs)
+
+            # GET latency while a second batch of fits runs
+            busy_get: list[float] = []
+            with ThreadPoolExecutor(UPLOADERS) as uploaders:
+                batch = [uploaders.submit(submit_and_wait, i, THROUGHPUT_POLL_S) for i in range(THROUGHPUT_JOBS)]
+                time.sleep(0.5)
+                while not all(f.done() for f in batch) and len(busy_get) < 5000:
+                    begin = time.perf_counter()
+                    client.get(f"/api/v1/records/{record_id}").raise_for_status()
+                    busy_get.append(time.perf_counter() - begin)
+                    time.sleep(READER_PAUSE_S)
+                assert all(f.result()["status"] == "succeeded" for f in batch)
     finally:
         server.terminate()
         server.wait(timeout=30)
@@ -175,21 +181,23 @@ def main() -> None:
         "",
         "The overhead is the upload itself, the acceptance check (the file is read and the calf",
         "located in a worker before anything is stored, so bad scans are refused with a 4xx),",
-        "the job hand-off to a second worker process, storing the record, and the client's",
-        "polling interval (10 ms).",
+        "the job hand-off to a worker process (which reuses the calf placement found by the check),",
+        "storing the record, and the client's polling interval (20 ms).",
         "",
         "## Throughput, 2 workers",
         "",
-        f"{THROUGHPUT_JOBS} uploads submitted at once: {results['throughput_jobs_per_s']:.2f} jobs/s; "
-        f"two workers with no overhead would do {ideal:.2f} jobs/s "
-        f"(ratio {results['throughput_jobs_per_s'] / ideal:.2f}).",
+        f"{THROUGHPUT_JOBS} uploads from {UPLOADERS} concurrent clients (each uploads, then polls its job "
+        f"every {THROUGHPUT_POLL_S * 1e3:.0f} ms): {results['throughput_jobs_per_s']:.2f} jobs/s; two workers with no "
+        f"overhead at all would do {ideal:.2f} jobs/s (ratio {results['throughput_jobs_per_s'] / ideal:.2f}). "
+        "The machine has 2 cores, shared by the 2 workers, the server process and the clients, so the ideal "
+        "is out of reach by construction; the ratio shows what the service costs on top of the fits.",
         "",
         "## GET latency while fits run",
         "",
         "| | median ms | p95 ms |",
         "|---|---|---|",
         f"| GET /api/v1/records/{{id}}, idle | {results['get_idle_ms']['median']:.1f} | {results['get_idle_ms']['p95']:.1f} |",
-        f"| the same during the throughput run ({results['get_busy_ms']['n']} requests) | "
+        f"| the same while {THROUGHPUT_JOBS} more uploads are fitted ({results['get_busy_ms']['n']} requests) | "
         f"{results['get_busy_ms']['median']:.1f} | {results['get_busy_ms']['p95']:.1f} |",
         "",
         f"Busy/idle median ratio: {results['get_busy_ms']['median'] / results['get_idle_ms']['median']:.2f}x. "

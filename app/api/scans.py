@@ -87,12 +87,12 @@ async def upload_scan(
         try:
             # the quick acceptance check runs in a worker process: reading the file and
             # finding the calf (ankle, calf, knee); nothing is stored if it fails
-            await runner.run_in_worker(
+            placement = await runner.run_in_worker(
                 validate_scan_file, str(upload.temp_path), upload.file_format, options, timeout=settings.validation_timeout_s
             )
         except asyncio.TimeoutError as exc:
             raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
-        job, scan, reused = await run_in_threadpool(JobService(session).submit, upload, options, store)
+        job, scan, reused = await run_in_threadpool(JobService(session).submit, upload, options, store, placement)
     except BaseException:
         upload.discard()
         raise

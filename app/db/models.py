@@ -43,6 +43,7 @@ class Job(Base):
     scan_id: Mapped[str] = mapped_column(ForeignKey("scans.id", ondelete="RESTRICT"), nullable=False)
     status: Mapped[str] = mapped_column(String(16), nullable=False, default="queued")
     options: Mapped[dict] = mapped_column(JSON, nullable=False)
+    placement: Mapped[dict | None] = mapped_column(JSON)  # the calf found by the upload check
     created_at: Mapped[datetime] = mapped_column(DateTime(timezone=True), default=utcnow, nullable=False)
     started_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))
     finished_at: Mapped[datetime | None] = mapped_column(DateTime(timezone=True))

@@ -36,8 +36,8 @@ class JobRepository:
     def __init__(self, session: Session):
         self.session = session
 
-    def add(self, scan_id: str, options: dict) -> Job:
-        job = Job(scan_id=scan_id, options=options, status=JOB_QUEUED)
+    def add(self, scan_id: str, options: dict, placement: dict | None = None) -> Job:
+        job = Job(scan_id=scan_id, options=options, placement=placement, status=JOB_QUEUED)
         self.session.add(job)
         self.session.flush()
         return job

@@ -334,12 +334,54 @@ def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
     return np.linspace(b, d, options.n_sections)
 
 
-def fit_scan(scan: Scan, options: FitOptions | None = None) -> FitResult:
-    """Fit the paper's NURBS calf model to a scan (see module docstring)."""
+def placement_dict(leg: _LegPlacement, side: str | None) -> dict:
+    """The calf placement as plain JSON (to hand from an upload check to the fit)."""
+    frame = leg.frame
+    return {
+        "side": side,
+        "rotation": frame.rotation.tolist(),
+        "origin_mm": frame.origin_mm.tolist(),
+        "mm_per_unit": frame.mm_per_unit,
+        "anterior_cue": frame.anterior_cue,
+        "c_mm": leg.c_mm,
+        "d_mm": leg.d_mm,
+        "d_at_window_edge": leg.d_at_window_edge,
+    }
+
+
+def _placed_leg(scan: Scan, placement: dict) -> tuple[_LegPlacement, str | None]:
+    """Rebuild a leg placement found earlier on the same scan (no landmark search).
+
+    For a body, the legs are cut apart again (cheap) and the one whose points lie
+    around the stored calf origin is taken.
+    """
+    frame = cf.CalfFrame(
+        np.asarray(placement["rotation"], dtype=float),
+        np.asarray(placement["origin_mm"], dtype=float),
+        float(placement["mm_per_unit"]),
+        placement["anterior_cue"],
+    )
+    points, faces = scan.points_mm, scan.faces
+    sample = points[:: max(len(points) // 20000, 1)]
+    if float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM:
+        cuts = cf.split_body_legs(points)
+        distance = [np.linalg.norm(np.median(points[c.point_index], axis=0) - frame.origin_mm) for c in cuts]
+        cut = cuts[int(np.argmin(distance))]
+        points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(scan.points_mm))
+    leg = _LegPlacement(points, faces, frame, 0.0, float(placement["c_mm"]), float(placement["d_mm"]), bool(placement["d_at_window_edge"]))
+    return leg, placement["side"]
+
+
+def fit_scan(scan: Scan, options: FitOptions | None = None, placement: dict | None = None) -> FitResult:
+    """Fit the paper's NURBS calf model to a scan (see module docstring).
+
+    ``placement`` (from :func:`check_scan` on the same scan and options) skips the search
+    for the leg, its axis and its landmarks; the result is the same.
+    """
     options = options or FitOptions()
     options.validate()
     started = time.perf_counter()
-    leg, side = _choose_leg(scan, options.side)
+    leg, side = _placed_leg(scan, placement) if placement else _choose_leg(scan, options.side)
     placed = time.perf_counter()
     local = leg.frame.to_calf(leg.points)
     result = fit_calf(local, leg.faces, leg.c_mm, leg.d_mm, options, frame=leg.frame, side=side,
@@ -449,8 +491,9 @@ def fit_calf(
 def check_scan(scan: Scan, options: FitOptions | None = None) -> dict:
     """Quick acceptance test of a scan: the options are valid and the calf can be placed
     (the leg found, B, C and D present).  Raises FitFailure with the reason otherwise;
-    returns the side and the calf's extent.  Costs the calf-frame stage of a fit."""
+    returns the placement (:func:`placement_dict`), which :func:`fit_scan` can reuse.
+    Costs the calf-frame stage of a fit."""
     options = options or FitOptions()
     options.validate()
     leg, side = _choose_leg(scan, options.side)
-    return {"side": side, "c_mm": leg.c_mm, "d_mm": leg.d_mm, "anterior_cue": leg.frame.anterior_cue}
+    return placement_dict(leg, side)

@@ -96,13 +96,13 @@ class EmbeddedRunner:
         with self.sessions() as session:
             return JobRepository(session).count_by_status()
 
-    def _claim(self) -> tuple[str, str, str, dict] | None:
+    def _claim(self) -> tuple[str, str, str, dict, dict | None] | None:
         with self.sessions() as session, session.begin():
             job = JobRepository(session).claim_next()
             if job is None:
                 return None
             scan = ScanRepository(session).get(job.scan_id)
-            return job.id, str(self.store.path_for(scan.sha256)), scan.file_format, dict(job.options)
+            return job.id, str(self.store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement
 
     def _finish_success(self, job_id: str, scan_id_path: str, outcome: dict) -> None:
         with self.sessions() as session, session.begin():
@@ -141,9 +141,9 @@ class EmbeddedRunner:
         if self._wakeup is not None:
             self._wakeup.set()
 
-    async def _run_job(self, job_id: str, path: str, file_format: str, options: dict) -> None:
+    async def _run_job(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> None:
         try:
-            outcome = await self.run_in_worker(fit_scan_file, path, file_format, options, timeout=self.job_timeout_s)
+            outcome = await self.run_in_worker(fit_scan_file, path, file_format, options, placement, timeout=self.job_timeout_s)
         except FitFailure as failure:
             await asyncio.to_thread(self._finish_failure, job_id, failure.reason.value, failure.detail)
         except asyncio.TimeoutError:

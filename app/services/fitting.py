@@ -45,19 +45,22 @@ def fit_options(options: dict) -> FitOptions:
 
 
 def validate_scan_file(path: str, file_format: str, options: dict) -> dict:
-    """Worker: read the scan and place its calf; raises FitFailure with the reason."""
+    """Worker: read the scan and place its calf; raises FitFailure with the reason.
+    Returns the placement, JSON."""
     scan = load_scan(path, file_type=file_format, units=options.get("units"))
-    summary = check_scan(scan, fit_options(options))
-    summary.update({"units": scan.units, "n_points": int(len(scan.points_mm))})
-    return summary
+    return check_scan(scan, fit_options(options))
 
 
-def fit_scan_file(path: str, file_format: str, options: dict) -> dict:
-    """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}."""
+def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None) -> dict:
+    """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}.
+
+    ``placement``: what the upload check found (see app.geometry.fit.check_scan); the
+    fit then skips locating the calf again.
+    """
     started = time.perf_counter()
     scan = load_scan(path, file_type=file_format, units=options.get("units"))
     loaded = time.perf_counter()
-    result = fit_scan(scan, fit_options(options))
+    result = fit_scan(scan, fit_options(options), placement)
     seconds = time.perf_counter() - started
     record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
     stages = {"load": loaded - started, **{k: float(v) for k, v in result.timings.items()}, "total": seconds}

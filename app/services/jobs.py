@@ -19,7 +19,7 @@ class JobService:
         self.scans = ScanRepository(session)
         self.jobs = JobRepository(session)
 
-    def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore) -> tuple[Job, Scan, bool]:
+    def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore, placement: dict | None = None) -> tuple[Job, Scan, bool]:
         """Store the scan once (content-addressed) and queue a job; commits.
 
         Returns (job, scan, reused) - reused when the same bytes were already stored.
@@ -42,7 +42,7 @@ class JobService:
                     raise
         else:
             upload.discard()
-        job = self.jobs.add(scan.id, options)
+        job = self.jobs.add(scan.id, options, placement)
         self.session.commit()
         return job, scan, reused
 

@@ -75,7 +75,9 @@ def test_serve_migrates_an_empty_data_dir_then_fits(tmp_path):
     try:
         base = f"http://127.0.0.1:{port}"
         wait_ready(base, server)
-        assert httpx.get(f"{base}/readyz").json()["revision"] == "0001"
+        from app.db.migrate import head_revision
+
+        assert httpx.get(f"{base}/readyz").json()["revision"] == head_revision("sqlite://")
         job = fit_one(base)
         assert job["status"] == "succeeded"
         assert (tmp_path / "var" / "calf.db").is_file()
