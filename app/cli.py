@@ -177,8 +177,11 @@ def build_parser() -> argparse.ArgumentParser:
     design.add_argument("record")
     design.add_argument("--class", dest="compression_class", default="II")
     design.add_argument("--standard", default="RAL", choices=["RAL", "BS", "AFNOR"])
-    design.add_argument("--stiffness", type=float, help="fabric stiffness K, N/cm per unit strain")
-    design.add_argument("--json", action="store_true")
+    design.add_argument("--stiffness", type=float, default=10.0, help="fabric stiffness K, N/cm per unit strain (10)")
+    design.add_argument("--max-strain", type=float, default=1.0, help="largest strain of a linear fabric (1.0 = 100%%)")
+    design.add_argument("--table", help="CSV of the fabric's measured strain,tension_N_per_cm (instead of --stiffness)")
+    design.add_argument("--hot-spot-limit", type=float, default=60.0, help="local pressure hot-spot limit, mmHg (60)")
+    design.add_argument("--json", action="store_true", help="print the whole design as JSON")
     design.set_defaults(func=_cmd_design)
     return parser
 

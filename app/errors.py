@@ -71,6 +71,9 @@ FAILURE_TITLES = {
     FailureReason.INVALID_OPTION: "Invalid fitting option",
     FailureReason.DEGENERATE_SURFACE: "The surface cannot be built",
     FailureReason.INVALID_RECORD: "Invalid calf record",
+    FailureReason.INVALID_TARGET: "Invalid pressure target",
+    FailureReason.INVALID_FABRIC: "Invalid fabric",
+    FailureReason.UNREACHABLE_PRESSURE: "The fabric cannot reach the pressure without tearing",
 }
 
 

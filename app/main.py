@@ -8,7 +8,7 @@ from fastapi import FastAPI
 from fastapi.openapi.utils import get_openapi
 
 from app import __version__
-from app.api import health, jobs, records, scans
+from app.api import designs, health, jobs, records, scans
 from app.api.problems import add_problem_schema, install_problem_handlers
 from app.db.session import engine_for, session_factory
 from app.jobs.runner import EmbeddedRunner
@@ -45,7 +45,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan)
     install_problem_handlers(app)
-    for module in (scans, jobs, records, health):
+    for module in (scans, jobs, records, designs, health):
         app.include_router(module.router)
 
     def openapi() -> dict:

@@ -104,3 +104,37 @@ class Health(BaseModel):
     status: str
     database: str | None = None
     revision: str | None = None
+
+
+class FabricIn(BaseModel):
+    stiffness_n_per_cm: float | None = Field(None, description="linear fabric: tension per unit width per unit strain, N/cm")
+    max_strain: float = Field(1.0, description="linear fabric: the largest strain it may be designed at")
+    table: list[list[float]] | None = Field(None, description="measured fabric: [[strain, tension N/cm], ...], strictly increasing")
+
+
+class DesignRequest(BaseModel):
+    """A stocking design: a class (graded by the gradient table) or explicit targets."""
+
+    model_config = ConfigDict(extra="forbid")
+    standard: str = Field("RAL", description="RAL (RAL-GZ 387), BS (BS 6612) or AFNOR (NF G30-102)")
+    compression_class: str | None = Field("II", description="e.g. I, II, III, IV (RAL); 1-3 (BS); 1-4 (AFNOR)")
+    targets_mmHg: dict[str, float] | None = Field(None, description="explicit mean pressures at B, B1, C, D; override the class")
+    fabric: FabricIn
+    hot_spot_limit_mmHg: float = Field(60.0, description="local pressure above this is reported as a hot spot")
+    step_mm: float = Field(5.0, description="knitting specification every step_mm from B to D (and at the landmarks)")
+    resolution_mm: float = Field(1.0, description="resolution of the relaxed circumferences L0")
+
+
+class DesignOut(BaseModel):
+    model_config = ConfigDict(extra="allow")
+    id: str
+    record_id: str
+    created_at: datetime
+    inputs: dict
+    landmarks: dict
+    ratios: dict
+    checks: list
+    passed: bool
+    hot_spots: list
+    knitting_spec: list
+    links: dict[str, str]

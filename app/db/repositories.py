@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import func, select, text, update
+from sqlalchemy import delete, func, select, text, update
 from sqlalchemy.orm import Session
 
-from app.db.models import Job, Record, Scan, utcnow
+from app.db.models import Design, Job, Record, Scan, utcnow
 
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
@@ -128,12 +128,34 @@ class RecordRepository:
         return list(self.session.scalars(query))
 
     def delete(self, record: Record) -> None:
+        """Delete a record and the designs made from it (derived data)."""
         self.session.execute(update(Job).where(Job.record_id == record.id).values(record_id=None))
+        self.session.execute(delete(Design).where(Design.record_id == record.id))
         self.session.delete(record)
         self.session.flush()
 
     def count(self) -> int:
         return self.session.scalar(select(func.count()).select_from(Record)) or 0
+
+
+class DesignRepository:
+    def __init__(self, session: Session):
+        self.session = session
+
+    def add(self, record_id: str, inputs: dict, result: dict, etag: str) -> Design:
+        design = Design(record_id=record_id, inputs=inputs, result=result, etag=etag)
+        self.session.add(design)
+        self.session.flush()
+        return design
+
+    def get(self, design_id: str) -> Design | None:
+        return self.session.get(Design, design_id)
+
+    def for_record(self, record_id: str) -> list[Design]:
+        return list(self.session.scalars(select(Design).where(Design.record_id == record_id).order_by(Design.created_at)))
+
+    def count(self) -> int:
+        return self.session.scalar(select(func.count()).select_from(Design)) or 0
 
 
 def ping(session: Session) -> None:

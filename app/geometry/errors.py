@@ -29,6 +29,10 @@ class FailureReason(str, enum.Enum):
     INVALID_OPTION = "invalid_option"
     DEGENERATE_SURFACE = "degenerate_surface"
     INVALID_RECORD = "invalid_record"
+    # garment design
+    INVALID_TARGET = "invalid_target"
+    INVALID_FABRIC = "invalid_fabric"
+    UNREACHABLE_PRESSURE = "unreachable_pressure"
 
 
 class FitFailure(Exception):

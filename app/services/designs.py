@@ -1,0 +1,205 @@
+"""Stocking designs: made from a stored record, stored with every input, exported as a
+knitting specification (CSV), a pressure map (GLB with vertex colours and a legend, or
+CSV) and PNG charts."""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+
+import numpy as np
+import trimesh
+from sqlalchemy.orm import Session
+
+from app.db.models import Design
+from app.db.repositories import DesignRepository
+from app.errors import NotFound, from_fit_failure
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.exchange import apply_frame, surface_grid_faces
+from app.geometry.garment import PA_PER_MMHG, DesignInputs, Fabric, design_stocking, pressure_map
+from app.geometry.record import CalfRecord
+from app.services.records import RecordService
+
+#: colour scale of pressure maps: 0 .. max(hot-spot limit, peak) mmHg
+COLORMAP = "inferno"
+
+
+def inputs_from_request(data: dict) -> DesignInputs:
+    """Validated design inputs from a request body (see DesignRequest in app.api.schemas)."""
+
+    def invalid(reason: FailureReason, detail: str) -> FitFailure:
+        return FitFailure(reason, detail)
+
+    fabric_in = data.get("fabric") or {}
+    if fabric_in.get("table") is not None:
+        rows = fabric_in["table"]
+        if not isinstance(rows, list) or not all(isinstance(r, (list, tuple)) and len(r) == 2 for r in rows):
+            raise invalid(FailureReason.INVALID_FABRIC, "fabric.table must be a list of [strain, tension_N_per_cm] rows")
+        fabric = Fabric.table([r[0] for r in rows], [r[1] for r in rows])
+    elif fabric_in.get("stiffness_n_per_cm") is not None:
+        fabric = Fabric.linear(float(fabric_in["stiffness_n_per_cm"]), float(fabric_in.get("max_strain", 1.0)))
+    else:
+        raise invalid(FailureReason.INVALID_FABRIC, "give the fabric as stiffness_n_per_cm or as a tension-strain table")
+    return DesignInputs(
+        standard=str(data.get("standard", "RAL")),
+        compression_class=data.get("compression_class", "II"),
+        targets_mmhg=data.get("targets_mmHg"),
+        fabric=fabric,
+        hot_spot_limit_mmhg=float(data.get("hot_spot_limit_mmHg", 60.0)),
+        step_mm=float(data.get("step_mm", 5.0)),
+        resolution_mm=float(data.get("resolution_mm", 1.0)),
+    )
+
+
+def inputs_as_dict(inputs: DesignInputs) -> dict:
+    return {
+        "standard": inputs.standard,
+        "compression_class": inputs.compression_class if inputs.targets_mmhg is None else None,
+        "targets_mmHg": inputs.targets_mmhg,
+        "fabric": inputs.fabric.as_dict() if inputs.fabric.stiffness_n_per_cm is None else {
+            "stiffness_n_per_cm": inputs.fabric.stiffness_n_per_cm, "max_strain": inputs.fabric.max_strain},
+        "hot_spot_limit_mmHg": inputs.hot_spot_limit_mmhg,
+        "step_mm": inputs.step_mm,
+        "resolution_mm": inputs.resolution_mm,
+    }
+
+
+def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
+    return design_stocking(record.surface, record.landmarks, record.side, inputs)
+
+
+class DesignService:
+    def __init__(self, session: Session):
+        self.session = session
+        self.designs = DesignRepository(session)
+        self.records = RecordService(session)
+
+    def create(self, record_id: str, data: dict) -> Design:
+        """Design from a stored record; stores it with its inputs; commits."""
+        row = self.records.get(record_id)
+        try:
+            record = CalfRecord.from_dict(row.body)
+            inputs = inputs_from_request(data)
+            result = compute_design(record, inputs)
+        except FitFailure as failure:
+            raise from_fit_failure(failure) from failure
+        except (TypeError, ValueError) as exc:
+            raise from_fit_failure(FitFailure(FailureReason.INVALID_TARGET, f"invalid design input: {exc}")) from exc
+        stored_inputs = inputs_as_dict(inputs)
+        etag = hashlib.sha256(json.dumps([row.etag, stored_inputs], sort_keys=True).encode()).hexdigest()
+        design = self.designs.add(record_id, stored_inputs, result, etag)
+        self.session.commit()
+        return design
+
+    def get(self, design_id: str) -> Design:
+        design = self.designs.get(design_id)
+        if design is None:
+            raise NotFound(f"no design {design_id!r}", code="design_not_found")
+        return design
+
+    def for_record(self, record_id: str) -> list[Design]:
+        self.records.get(record_id)
+        return self.designs.for_record(record_id)
+
+    def record_of(self, design: Design) -> CalfRecord:
+        return CalfRecord.from_dict(self.records.get(design.record_id).body)
+
+
+def design_view(design: Design) -> dict:
+    base = f"/api/v1/designs/{design.id}"
+    return {
+        "id": design.id,
+        "record_id": design.record_id,
+        "created_at": design.created_at,
+        "inputs": design.inputs,
+        **design.result,
+        "links": {
+            "self": base,
+            "record": f"/api/v1/records/{design.record_id}",
+            "knitting_spec": f"{base}/knitting-spec",
+            "pressure_map": f"{base}/pressure-map",
+            **{f"chart_{name}": f"{base}/charts/{name}.png" for name in ("profile", "pressure", "map")},
+        },
+    }
+
+
+def knitting_csv(result: dict) -> str:
+    out = io.StringIO()
+    writer = csv.writer(out)
+    columns = ["height_mm", "target_mmHg", "predicted_mean_mmHg", "stretched_circumference_mm", "strain",
+               "tension_N_per_cm", "relaxed_circumference_mm"]
+    writer.writerow(columns)
+    for row in result["knitting_spec"]:
+        writer.writerow([f"{row[c]:.4f}" if isinstance(row[c], float) else row[c] for c in columns])
+    return out.getvalue()
+
+
+def _fabric_of(inputs: dict) -> Fabric:
+    fabric = inputs["fabric"]
+    if "table" in fabric:
+        rows = fabric["table"]
+        return Fabric.table([r[0] for r in rows], [r[1] for r in rows])
+    return Fabric.linear(fabric["stiffness_n_per_cm"], fabric.get("max_strain", 1.0))
+
+
+def pressure_grid(design: Design, record: CalfRecord, n_around: int = 360):
+    return pressure_map(record.surface, design.result, _fabric_of(design.inputs), n_around)
+
+
+def pressure_map_csv(design: Design, record: CalfRecord) -> str:
+    rings, local = pressure_grid(design, record)
+    k, n = local.shape
+    out = io.StringIO()
+    out.write("height_mm,angle_deg,x_mm,y_mm,z_mm,pressure_mmHg,pressure_kPa,in_contact\n")
+    rows = np.column_stack([
+        np.repeat(rings.heights_mm, n), np.degrees(rings.angle).ravel(), rings.points[..., 0].ravel(),
+        rings.points[..., 1].ravel(), rings.z.ravel(), (local / PA_PER_MMHG).ravel(), (local / 1000).ravel(),
+        rings.contact.ravel().astype(float),
+    ])
+    np.savetxt(out, rows, delimiter=",", fmt=["%.2f", "%.2f", "%.3f", "%.3f", "%.3f", "%.3f", "%.4f", "%d"])
+    return out.getvalue()
+
+
+def color_scale(design: Design, local_pa: np.ndarray) -> tuple[float, list[dict]]:
+    """Top of the colour scale (mmHg) and the legend stops."""
+    import matplotlib
+
+    top = max(float(design.result["hot_spot_limit_mmHg"]), float(local_pa.max() / PA_PER_MMHG))
+    cmap = matplotlib.colormaps[COLORMAP]
+    stops = []
+    for value in np.linspace(0, top, 7):
+        rgba = cmap(value / top)
+        stops.append({"mmHg": round(float(value), 2), "kPa": round(float(value) * PA_PER_MMHG / 1000, 3),
+                      "rgba": [int(round(255 * c)) for c in rgba]})
+    return top, stops
+
+
+def pressure_map_glb(design: Design, record: CalfRecord) -> bytes:
+    """The surface coloured by local pressure, in the scan's coordinates, with a colour-bar
+    mesh beside it and the legend (stops in mmHg and kPa) in the glTF extras."""
+    import matplotlib
+
+    rings, local = pressure_grid(design, record)
+    k, n = local.shape
+    top, stops = color_scale(design, local)
+    cmap = matplotlib.colormaps[COLORMAP]
+    calf_vertices = np.concatenate([rings.points, rings.z[..., None]], axis=2).transpose(1, 0, 2).reshape(-1, 3)
+    colors = (cmap(np.clip((local / PA_PER_MMHG) / top, 0, 1)).transpose(1, 0, 2).reshape(-1, 4) * 255).astype(np.uint8)
+    frame = record.frame
+    leg = trimesh.Trimesh(apply_frame(calf_vertices, frame), surface_grid_faces(n, k), process=False)
+    leg.visual.vertex_colors = colors
+    # colour bar: a vertical strip 20 mm wide, 40 mm beside the calf, as tall as the calf
+    x0 = rings.points[..., 0].max() + 40.0
+    z = np.linspace(rings.heights_mm[0], rings.heights_mm[-1], 64)
+    bar_calf = np.array([[x0 + dx, rings.centroid[:, 1].mean(), zz] for zz in z for dx in (0.0, 20.0)])
+    bar_faces = np.array([[2 * i, 2 * i + 1, 2 * i + 3] for i in range(63)] + [[2 * i, 2 * i + 3, 2 * i + 2] for i in range(63)])
+    bar = trimesh.Trimesh(apply_frame(bar_calf, frame), bar_faces, process=False)
+    bar.visual.vertex_colors = (np.repeat(cmap(np.linspace(0, 1, 64)), 2, axis=0) * 255).astype(np.uint8)
+    scene = trimesh.Scene()
+    scene.add_geometry(leg, node_name="pressure_map", geom_name="pressure_map")
+    scene.add_geometry(bar, node_name="legend", geom_name="legend")
+    scene.metadata["legend"] = {"quantity": "local skin pressure", "unit": "mmHg", "colormap": COLORMAP,
+                                "bottom_of_bar_mmHg": 0.0, "top_of_bar_mmHg": top, "stops": stops}
+    return scene.export(file_type="glb")
