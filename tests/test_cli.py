@@ -36,3 +36,32 @@ def test_body_side_and_units_options(tmp_path, capsys):
     assert main(["fit", str(REAL / "vh_male_skin.glb"), "--side", "left", "--units", "m"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["side"] == "left"
+
+
+def test_design_prints_a_table_and_json(tmp_path, capsys):
+    record_path = tmp_path / "leg.json"
+    assert main(["fit", str(REAL / "bodyparts3d_right_leg.stl"), "--side", "right", "-o", str(record_path)]) == 0
+    capsys.readouterr()
+    assert main(["design", str(record_path), "--class", "II", "--stiffness", "10"]) == 0
+    table = capsys.readouterr().out
+    assert "RAL class II" in table and "[pass] B in RAL class II" in table
+    assert main(["design", str(record_path), "--class", "II", "--stiffness", "10", "--json"]) == 0
+    design = json.loads(capsys.readouterr().out)
+    for name in ("B", "B1", "C", "D"):
+        lm = design["landmarks"][name]
+        for key in ("mean_pressure_mmHg", "stretched_circumference_mm", "relaxed_circumference_mm"):
+            assert lm[key] > 0
+        assert set(lm["sides_mmHg"]) == {"medial", "lateral", "anterior", "posterior"}
+    assert 23 <= design["landmarks"]["B"]["mean_pressure_mmHg"] <= 32
+
+
+def test_design_with_a_fabric_table_and_a_refusal(tmp_path, capsys):
+    record_path = tmp_path / "leg.json"
+    main(["fit", str(REAL / "bodyparts3d_right_leg.stl"), "-o", str(record_path)])
+    table = tmp_path / "fabric.csv"
+    table.write_text("strain,tension_N_per_cm\n0.0,0.0\n0.2,1.5\n0.4,3.5\n0.8,9.0\n")
+    capsys.readouterr()
+    assert main(["design", str(record_path), "--standard", "BS", "--class", "2", "--table", str(table), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["class"]["standard"] == "BS"
+    assert main(["design", str(record_path), "--class", "IV", "--stiffness", "1"]) == 3
+    assert json.loads(capsys.readouterr().err)["error"] == "unreachable_pressure"
