@@ -164,32 +164,93 @@ def evaluate_grid(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> np.nda
     return grid[..., :3] / grid[..., 3:]
 
 
+_SPAN_POLYNOMIALS: dict = {}
+
+
+def span_polynomials(knots: np.ndarray, degree: int, n_ctrl: int) -> np.ndarray:
+    """Power-basis coefficients of the non-zero basis functions on every knot span.
+
+    Returns (n_ctrl - degree, degree + 1, degree + 1): for span s (index s - degree),
+    ``N_{s-degree+j}(u) = sum_k C[s-degree, j, k] t^k`` with t = (u - knots[s]) /
+    (knots[s+1] - knots[s]).  Built once per knot vector from A2.2 values at degree + 1
+    points per span (a Vandermonde solve) and cached; empty spans get zeros.
+    """
+    key = (knots.tobytes(), degree, n_ctrl)
+    cached = _SPAN_POLYNOMIALS.get(key)
+    if cached is not None:
+        return cached
+    spans = np.arange(degree, n_ctrl)
+    width = knots[spans + 1] - knots[spans]
+    nodes = (np.arange(degree + 1) + 0.5) / (degree + 1)  # inside the span, away from its ends
+    u = (knots[spans][:, None] + nodes[None, :] * width[:, None]).ravel()
+    values = basis_function_derivatives(knots, degree, np.repeat(spans, degree + 1), u, 0)[0]
+    values = values.reshape(len(spans), degree + 1, degree + 1)  # [span, node, j]
+    vandermonde = nodes[:, None] ** np.arange(degree + 1)[None, :]  # [node, k]
+    coefficients = np.linalg.solve(vandermonde, values)  # [span, k, j]
+    coefficients = np.transpose(coefficients, (0, 2, 1)).copy()  # [span, j, k]
+    coefficients[width <= 0] = 0.0
+    if len(_SPAN_POLYNOMIALS) > 256:
+        _SPAN_POLYNOMIALS.clear()
+    _SPAN_POLYNOMIALS[key] = coefficients
+    return coefficients
+
+
+def basis_derivatives_fast(knots: np.ndarray, degree: int, n_ctrl: int, u: np.ndarray, spans: np.ndarray) -> np.ndarray:
+    """Same as :func:`basis_function_derivatives` up to order 2, from the span polynomials.
+
+    Returns (3, N, degree + 1).
+    """
+    coefficients = span_polynomials(knots, degree, n_ctrl)[spans - degree]  # (N, p+1, p+1)
+    width = knots[spans + 1] - knots[spans]
+    safe = np.where(width > 0, width, 1.0)
+    t = (u - knots[spans]) / safe
+    inv = 1.0 / safe
+    monomials = np.zeros((len(u), degree + 1, 3))  # [n, power k, derivative order]
+    power = np.ones_like(t)
+    for k in range(degree + 1):  # t^k, k t^(k-1) / h, k (k-1) t^(k-2) / h^2
+        monomials[:, k, 0] = power if k else 1.0
+        if k >= 1:
+            monomials[:, k, 1] = k * monomials[:, k - 1, 0] * inv
+        if k >= 2:
+            monomials[:, k, 2] = k * (k - 1) * monomials[:, k - 2, 0] * inv * inv
+        power = power * t
+    return np.transpose(np.matmul(coefficients, monomials), (2, 0, 1))
+
+
 def evaluate_derivatives(
     surface: NurbsSurface, u: np.ndarray, v: np.ndarray
 ) -> tuple[np.ndarray, ...]:
     """Point and derivatives up to second order at scattered (u, v) pairs.
 
-    Rational derivatives by the quotient rule of The NURBS Book eq. (4.20) / A4.4.
+    Rational derivatives by the quotient rule of The NURBS Book eq. (4.20) / A4.4; a
+    surface whose weights are all 1 (the paper's) takes the polynomial shortcut.
     u, v (N,); returns ``S, Su, Sv, Suu, Suv, Svv``, each (N, 3) mm.
     """
     nu, nv = surface.shape
     p, q = surface.degree_u, surface.degree_v
+    u = np.asarray(u, dtype=np.float64)
+    v = np.asarray(v, dtype=np.float64)
     su = find_spans(surface.knots_u, p, nu, u)
     sv = find_spans(surface.knots_v, q, nv, v)
-    du = basis_function_derivatives(surface.knots_u, p, su, u, 2)  # (3, N, p+1)
-    dv = basis_function_derivatives(surface.knots_v, q, sv, v, 2)  # (3, N, q+1)
+    du = basis_derivatives_fast(surface.knots_u, p, nu, u, su)  # (3, N, p+1)
+    dv = basis_derivatives_fast(surface.knots_v, q, nv, v, sv)  # (3, N, q+1)
     iu = su[:, None] - p + np.arange(p + 1)
     iv = sv[:, None] - q + np.arange(q + 1)
     flat_index = iu[:, :, None] * nv + iv[:, None, :]  # (N, p+1, q+1)
-    patch = surface.homogeneous().reshape(nu * nv, 4)[flat_index]  # (N, p+1, q+1, 4)
-    # contract v first: (N, p+1, 4, q+1) @ (N, 1, q+1, 3) -> (N, p+1, 4, 3 v-orders)
+    polynomial = bool(np.all(surface.weights == 1.0))
+    channels = 3 if polynomial else 4
+    net = surface.control_points if polynomial else surface.homogeneous()
+    patch = net.reshape(nu * nv, channels)[flat_index]  # (N, p+1, q+1, c)
+    # contract v first: (N, p+1, c, q+1) @ (N, 1, q+1, 3) -> (N, p+1, c, 3 v-orders)
     along_v = np.matmul(patch.transpose(0, 1, 3, 2), dv.transpose(1, 2, 0)[:, None])
-    # then u: (N, 3 u-orders, p+1) @ (N, p+1, 4*3) -> (N, 3, 4, 3): [n, k, coord, l]
-    both = np.matmul(du.transpose(1, 0, 2), along_v.reshape(len(u), p + 1, 12)).reshape(len(u), 3, 4, 3)
+    # then u: (N, 3 u-orders, p+1) @ (N, p+1, c*3) -> (N, 3, c, 3): [n, k, coord, l]
+    both = np.matmul(du.transpose(1, 0, 2), along_v.reshape(len(u), p + 1, channels * 3)).reshape(len(u), 3, channels, 3)
 
     def a(k: int, l: int) -> np.ndarray:
         return both[:, k, :, l]
 
+    if polynomial:
+        return a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)
     a00, a10, a01, a20, a11, a02 = a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)
     w, wu, wv = a00[:, 3:], a10[:, 3:], a01[:, 3:]
     wuu, wuv, wvv = a20[:, 3:], a11[:, 3:], a02[:, 3:]

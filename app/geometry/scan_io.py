@@ -140,7 +140,14 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[n
     """
     bits = np.ascontiguousarray(vertices, dtype=np.float64).view(np.uint64)
     key = bits[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ bits[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F) ^ bits[:, 2]
-    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    # group equal keys: a stable sort, then a new group wherever the key changes
+    order = np.argsort(key, kind="stable")
+    ordered = key[order]
+    starts = np.concatenate([[True], ordered[1:] != ordered[:-1]])
+    group = np.cumsum(starts) - 1
+    inverse = np.empty(len(key), dtype=np.int64)
+    inverse[order] = group
+    first = order[starts]  # the first corner of each group (stable sort)
     unique = vertices[first]
     if not np.array_equal(unique[inverse], vertices):  # hash collision: be exact
         mesh = trimesh.Trimesh(vertices, faces, process=False)
@@ -209,10 +216,9 @@ def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | 
         if faces.min() < 0 or faces.max() >= len(vertices):
             raise FitFailure(FailureReason.UNREADABLE_FILE, "the mesh has faces pointing at missing vertices")
         vertices, faces = merge_duplicate_vertices(vertices, faces)
-        used = np.unique(faces)
-        if len(used) < len(vertices):  # drop vertices no face uses
-            remap = np.full(len(vertices), -1, dtype=np.int64)
-            remap[used] = np.arange(len(used))
+        used = np.bincount(faces.ravel(), minlength=len(vertices)) > 0
+        if not used.all():  # drop vertices no face uses
+            remap = np.cumsum(used) - 1
             vertices, faces = vertices[used], remap[faces]
         return vertices, faces
     if isinstance(geometry, trimesh.PointCloud):
@@ -278,14 +284,6 @@ def load_scan(
             FailureReason.NON_FINITE_COORDINATES,
             f"{bad} of {len(points)} points have NaN or infinite coordinates",
         )
-    if faces is not None:
-        # drop faces that reference nothing real; keep the mesh otherwise untouched
-        used = np.unique(faces)
-        if len(used) < MIN_POINTS:
-            raise FitFailure(
-                FailureReason.TOO_FEW_POINTS,
-                f"the mesh has {len(used)} vertices; at least {MIN_POINTS} are needed",
-            )
     if len(points) < MIN_POINTS:
         raise FitFailure(
             FailureReason.TOO_FEW_POINTS,

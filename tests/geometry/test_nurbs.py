@@ -108,12 +108,15 @@ def test_paper_mode_interpolates_every_feature_point_stacked_only_the_ends():
     assert np.abs(middle - layers[3]).max() > 0.01  # the literal reading does not pass through
 
 
-def test_rational_derivatives_match_finite_differences():
+@pytest.mark.parametrize("rational", [False, True])
+def test_derivatives_match_finite_differences(rational):
+    """Both paths: weights all 1 (polynomial shortcut) and random weights (eq. 4.20)."""
     layers = _layers()
     s = surface_from_layers(layers)
-    weights = 1.0 + 0.3 * np.random.default_rng(3).uniform(size=s.weights.shape)
-    weights[-3:] = weights[:3]
-    s = NurbsSurface(3, 3, s.knots_u, s.knots_v, s.control_points, weights, True)
+    if rational:
+        weights = 1.0 + 0.3 * np.random.default_rng(3).uniform(size=s.weights.shape)
+        weights[-3:] = weights[:3]
+        s = NurbsSurface(3, 3, s.knots_u, s.knots_v, s.control_points, weights, True)
     rng = np.random.default_rng(4)
     u, v = rng.uniform(0.05, 0.95, 50), rng.uniform(0.05, 0.95, 50)
     h = 1e-6
