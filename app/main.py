@@ -17,7 +17,7 @@ from app.settings import Settings, get_settings
 
 DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf
 (Li et al., *Fast NURBS-based parametric modeling of human calves*), and serves the
-surface, its measurements and - later - compression stocking designs.
+surface, its measurements and graduated compression stocking designs.
 
 Upload a scan (`POST /api/v1/scans`), poll the job it returns, then fetch the record,
 its surface (STL / GLB / glTF in the scan's own coordinates) and its measurements.
