@@ -20,7 +20,6 @@ from app.geometry.garment import DesignInputs, Fabric, design_stocking, pressure
 from app.geometry.record import record_from_fit  # noqa: E402
 from app.geometry.scan_io import load_scan  # noqa: E402
 from app.services import charts  # noqa: E402
-from app.services.designs import COLORMAP  # noqa: E402,F401
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -41,8 +40,6 @@ def discussion(rows) -> list[str]:
     paper = {lvl: statistics.mean(TABLE1[lvl].values()) for lvl in ("B", "B1", "C")}
     side_range = {(lvl, sd): (min(d["landmarks"][lvl]["sides_kPa"][sd] for _, d, _ in rows),
                               max(d["landmarks"][lvl]["sides_kPa"][sd] for _, d, _ in rows)) for lvl in ("B", "B1", "C") for sd in SIDES}
-    top_at_b = [max(SIDES, key=lambda sd: d["landmarks"]["B"]["sides_kPa"][sd]) for _, d, _ in rows]
-    low_at_b = [min(SIDES, key=lambda sd: d["landmarks"]["B"]["sides_kPa"][sd]) for _, d, _ in rows]
     r = lambda lvl, sd: f"{side_range[(lvl, sd)][0]:.1f}-{side_range[(lvl, sd)][1]:.1f}"  # noqa: E731
     return [
         f"- **Levels.** Mean pressure, ours (five legs) vs the paper's mannequin: B {ours['B']:.2f} vs {paper['B']:.2f} kPa, "

@@ -162,7 +162,7 @@ def _pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarr
 
 
 def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float,
-               pca: tuple[np.ndarray, np.ndarray | None] | None = None) -> _LegPlacement:
+               pca: tuple[np.ndarray, np.ndarray | None] | None = None, shape_axes: np.ndarray | None = None) -> _LegPlacement:
     """Axis by PCA, B/C/D, refined calf axis, anterior direction: the leg's calf frame.
 
     Paper section 2.1: PCA of the whole leg gives a first axis; B, C, D are found on
@@ -172,7 +172,7 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     :data:`AXIS_TOLERANCE_DEG`.
     """
     samples, weights = pca if pca is not None else _pca_samples(points, faces)
-    shape_axes = cf.principal_frame(samples, weights)
+    shape_axes = shape_axes if shape_axes is not None else cf.principal_frame(samples, weights)
     axis = shape_axes[2]
     if up is not None and axis @ up < 0:
         axis = -axis
@@ -305,14 +305,15 @@ def _choose_leg(scan: Scan, side: str | None) -> tuple[_LegPlacement, str | None
     length = float(np.ptp(points @ axis))
     if length < cf.BODY_MIN_LENGTH_MM:
         pca = _pca_samples(points, faces)
-        extents = np.ptp(pca[0] @ cf.principal_frame(*pca).T, axis=0)
+        shape_axes = cf.principal_frame(*pca)
+        extents = np.ptp(pca[0] @ shape_axes.T, axis=0)
         if extents[2] < MIN_ASPECT * extents[:2].max():
             raise FitFailure(
                 FailureReason.NOT_A_LEG,
                 f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
                 f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
             )
-        return _place_leg(points, faces, None, scan.mm_per_unit, pca), side
+        return _place_leg(points, faces, None, scan.mm_per_unit, pca, shape_axes), side
     legs = []
     for cut in cf.split_body_legs(points):
         legs.append(

@@ -1,6 +1,5 @@
 """Scans that are not usable legs fail with their own specific reason, never a traceback."""
 
-import numpy as np
 import pytest
 import trimesh
 

@@ -1,6 +1,5 @@
 """Reading every supported format into millimetres, and refusing what is not a scan."""
 
-import io
 
 import numpy as np
 import pytest
