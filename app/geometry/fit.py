@@ -4,6 +4,20 @@ feature points -> NURBS surface -> error index (sections 2.1-2.6).
 :func:`fit_scan` returns a :class:`FitResult` or raises :class:`FitFailure` with the
 reason.  Everything is in millimetres; the calf frame is described in
 :mod:`app.geometry.calf_frame`.
+
+Finding the calf (section 2.1: segmentation by anatomy, orientation by PCA):
+1. a body is split into its legs (:func:`app.geometry.calf_frame.split_body_legs`); a
+   leg scan must be longer than it is wide;
+2. first axis: area-weighted PCA of the surface, then the line through the centroids of
+   the leg-like (compact) slabs, which a flat foot does not drag;
+3. the circumference profile along that axis gives B, C, D
+   (:func:`app.geometry.landmarks.find_feature_heights`), both ends tried when the
+   scan's up is unknown;
+4. the calf's own PCA axis (B to D) is adopted, B, C, D re-detected if it moved more
+   than :data:`REDETECT_DEG`;
+5. anterior from the foot, else opposite the calf bulge; origin at the B centroid.
+Then :func:`fit_calf`: 200 sections x 72 rays (2.1), the profile and B1 (2.2), feature
+points and k-means (2.3), the surface (2.4-2.5) and the error index (2.6).
 """
 
 from __future__ import annotations

@@ -194,3 +194,19 @@ def test_jobs_left_running_by_a_crash_are_picked_up_at_start(tmp_path):
     with TestClient(create_app(make_settings(tmp_path))) as restarted:
         job = wait_for_job(restarted, location)
         assert job["status"] == "succeeded" and job["attempts"] == 2
+
+
+def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
+    """The upload check passed, but the stored scan vanished before the fit ran."""
+    settings = make_settings(tmp_path, run_jobs=False)
+    upgrade_to_head(settings.resolved_database_url)
+    with TestClient(create_app(settings)) as accepting:
+        response = upload(accepting, "bodyparts3d_right_leg.stl", None)
+        sha = response.json()["scan_sha256"]
+    stored = tmp_path / "scans" / sha[:2] / sha
+    stored.unlink()
+    with TestClient(create_app(make_settings(tmp_path))) as running:
+        job = wait_for_job(running, response.headers["location"])
+    assert job["status"] == "failed" and job["record_id"] is None
+    assert job["error"]["code"] == "unreadable_file" and job["error"]["type"].endswith(":unreadable_file")
+    assert "cannot open" in job["error"]["detail"] and job["finished_at"]
