@@ -494,35 +494,48 @@ def _checks(p: dict, ratios: dict, class_info: dict | None) -> list[dict]:
 
 
 def find_hot_spots(rings: Rings, local_pa: np.ndarray, limit_pa: float, directions: dict[str, float]) -> list[dict]:
-    """Connected regions (height x angle, wrapping around) where local pressure > limit."""
+    """Connected regions of the (height x angle) grid where local pressure > limit.
+
+    Regions are labelled with scipy.ndimage; a region crossing the angle seam (the first
+    and last columns) is one region: labels touching across it are merged.  Peak,
+    height extent and size per region come from ndimage reductions.
+    """
     above = local_pa > limit_pa
-    if not above.any():
+    labels, count = ndimage.label(above)
+    if count == 0:
         return []
-    labels, count = ndimage.label(np.concatenate([above, above], axis=1))  # unroll twice: wrap-around
-    n = above.shape[1]
-    spots, seen = [], set()
-    for label in range(1, count + 1):
-        rows, cols = np.nonzero(labels == label)
-        cols_mod = cols % n
-        key = frozenset(zip(rows.tolist(), cols_mod.tolist()))
-        if key in seen or cols.min() >= n:
-            continue
-        seen.add(key)
-        values = local_pa[rows, cols_mod]
-        peak = int(np.argmax(values))
-        r, c = rows[peak], cols_mod[peak]
+    parent = np.arange(count + 1)
+
+    def root(label: int) -> int:
+        while parent[label] != label:
+            label = parent[label]
+        return label
+
+    seam = above[:, 0] & above[:, -1]
+    for a, b in zip(labels[seam, 0], labels[seam, -1]):  # rows on the seam only
+        ra, rb = root(a), root(b)
+        parent[max(ra, rb)] = min(ra, rb)
+    merged = np.array([root(label) for label in range(count + 1)])[labels]
+    ids = np.unique(merged[merged > 0])
+    rows = np.broadcast_to(np.arange(local_pa.shape[0])[:, None], local_pa.shape)
+    peaks = ndimage.maximum_position(local_pa, merged, ids)
+    lowest = ndimage.minimum(rows, merged, ids)
+    highest = ndimage.maximum(rows, merged, ids)
+    sizes = ndimage.sum(above, merged, ids)
+    spots = []
+    for (r, c), lo, hi, size in zip(peaks, lowest, highest, sizes):
         angle = float(rings.angle[r, c])
         spots.append({
             "height_mm": float(rings.heights_mm[r]),
-            "from_height_mm": float(rings.heights_mm[rows.min()]),
-            "to_height_mm": float(rings.heights_mm[rows.max()]),
+            "from_height_mm": float(rings.heights_mm[int(lo)]),
+            "to_height_mm": float(rings.heights_mm[int(hi)]),
             "angle_deg": float(np.degrees(angle)),
             "side": sector_name(angle, directions),
-            "peak_mmHg": float(values[peak] / PA_PER_MMHG),
-            "peak_kPa": float(values[peak] / 1000),
-            "samples": int(len(values)),
+            "peak_mmHg": float(local_pa[r, c] / PA_PER_MMHG),
+            "peak_kPa": float(local_pa[r, c] / 1000),
+            "samples": int(size),
         })
-    return sorted(spots, key=lambda s: -s["peak_mmHg"])
+    return sorted(spots, key=lambda spot: -spot["peak_mmHg"])
 
 
 def pressure_map(surface: NurbsSurface, design: dict, fabric: Fabric, n_around: int = 360) -> tuple[Rings, np.ndarray]:

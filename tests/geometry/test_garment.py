@@ -156,3 +156,20 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
     sides = design["landmarks"]["B"]["sides_mmHg"]
     assert max(sides.values()) > 1.2 * min(sides.values())
     assert all(v >= 0 for v in sides.values())
+
+
+def test_hot_spots_are_regions_and_one_region_across_the_seam():
+    from app.geometry.garment import find_hot_spots
+
+    surface = tube(40.0, 40.0)
+    rings = surface_rings(surface, np.linspace(0, 280, 15), 360)
+    local = np.full(rings.curvature.shape, 1000.0)
+    local[3:6, 355:] = 9000.0  # one region crossing the seam at 0 degrees ...
+    local[3:6, :4] = 9500.0
+    local[10, 100:104] = 8000.0  # ... and one elsewhere
+    spots = find_hot_spots(rings, local, 5000.0, {"east": 0.0, "north": np.pi / 2})
+    assert len(spots) == 2
+    seam, other = spots
+    assert seam["peak_kPa"] == pytest.approx(9.5) and seam["samples"] == 3 * 9 and seam["side"] == "east"
+    assert (seam["from_height_mm"], seam["to_height_mm"]) == (rings.heights_mm[3], rings.heights_mm[5])
+    assert other["samples"] == 4 and other["height_mm"] == rings.heights_mm[10] and other["side"] == "north"
