@@ -54,13 +54,9 @@ def list_records(
             responses=problems(s404="record_not_found"))
 def get_record(record_id: str, session: Session = Depends(get_session)):
     record = RecordService(session).get(record_id)
-    response = JSONResponse(jsonable(record_out(record)))
+    response = JSONResponse(jsonable_encoder(record_out(record)))
     response.headers["ETag"] = f'"{record.etag}"'
     return response
-
-
-def jsonable(value):
-    return jsonable_encoder(value)
 
 
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
@@ -71,7 +67,7 @@ def import_record(data: dict = Body(..., description="a calf record (schema_vers
     service = RecordService(session)
     record = service.import_record(data)
     session.commit()
-    return JSONResponse(jsonable(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
+    return JSONResponse(jsonable_encoder(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
 
 
 @router.delete("/records/{record_id}", status_code=204, summary="Delete a record (its scan stays stored)",
@@ -141,7 +137,7 @@ async def get_surface(
     matches = [tag.strip() for tag in (request.headers.get("if-none-match") or "").split(",")]
     if etag in matches or "*" in matches:
         return Response(status_code=304, headers={"ETag": etag})
-    data, _ = await run_in_threadpool(service.surface, record_id, fmt, around, along)
+    data = await run_in_threadpool(service.surface, record, fmt, around, along)
     side = record.side or "leg"
     filename = f"calf-{record.id[:12]}-{side}.{fmt}"
     return Response(

@@ -12,6 +12,11 @@ from app.db.models import Design, Job, Record, Scan, utcnow
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
 
+def count_rows(session: Session, model) -> int:
+    """Number of rows of a model's table."""
+    return session.scalar(select(func.count()).select_from(model)) or 0
+
+
 class ScanRepository:
     def __init__(self, session: Session):
         self.session = session
@@ -29,7 +34,7 @@ class ScanRepository:
         return scan
 
     def count(self) -> int:
-        return self.session.scalar(select(func.count()).select_from(Scan)) or 0
+        return count_rows(self.session, Scan)
 
 
 class JobRepository:
@@ -94,7 +99,7 @@ class JobRepository:
         return {status: count for status, count in rows}
 
     def count(self) -> int:
-        return self.session.scalar(select(func.count()).select_from(Job)) or 0
+        return count_rows(self.session, Job)
 
 
 class RecordRepository:
@@ -135,7 +140,7 @@ class RecordRepository:
         self.session.flush()
 
     def count(self) -> int:
-        return self.session.scalar(select(func.count()).select_from(Record)) or 0
+        return count_rows(self.session, Record)
 
 
 class DesignRepository:
@@ -153,9 +158,6 @@ class DesignRepository:
 
     def for_record(self, record_id: str) -> list[Design]:
         return list(self.session.scalars(select(Design).where(Design.record_id == record_id).order_by(Design.created_at)))
-
-    def count(self) -> int:
-        return self.session.scalar(select(func.count()).select_from(Design)) or 0
 
 
 def ping(session: Session) -> None:

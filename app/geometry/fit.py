@@ -121,12 +121,14 @@ class FitResult:
 
 @dataclass(frozen=True)
 class _LegPlacement:
-    """A leg with its refined axis, landmarks and anterior direction (scan mm)."""
+    """A leg with its refined axis, landmarks and anterior direction (scan mm).
+
+    ``c_mm`` and ``d_mm`` are calf-frame heights of C and D; B is the frame's origin (0).
+    """
 
     points: np.ndarray
     faces: np.ndarray | None
     frame: cf.CalfFrame
-    b_mm: float  # calf-frame heights: B is 0 by construction
     c_mm: float
     d_mm: float
     d_at_window_edge: bool
@@ -259,7 +261,7 @@ def _place_leg(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | No
     origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
     frame = cf.CalfFrame(rotation, origin, mm_per_unit, cue)
     return _LegPlacement(
-        points, faces, frame, 0.0, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm, feats.d_at_window_edge
+        points, faces, frame, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm, feats.d_at_window_edge
     )
 
 
@@ -312,12 +314,16 @@ def _either_way(heights: np.ndarray, girth: np.ndarray):
             raise (as_is if ends_up else reversed_failure) from None
 
 
+def _is_body(points: np.ndarray) -> bool:
+    """A whole body: longer than :data:`app.geometry.calf_frame.BODY_MIN_LENGTH_MM` along
+    its main axis (PCA of a 20k-point subsample)."""
+    sample = points[:: max(len(points) // 20000, 1)]
+    return float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM
+
+
 def _choose_leg(scan: Scan, side: str | None) -> tuple[_LegPlacement, str | None]:
     points, faces = scan.points_mm, scan.faces
-    sample = points[:: max(len(points) // 20000, 1)]
-    axis = cf.principal_axis(sample)
-    length = float(np.ptp(points @ axis))
-    if length < cf.BODY_MIN_LENGTH_MM:
+    if not _is_body(points):
         pca = _pca_samples(points, faces)
         shape_axes = cf.principal_frame(*pca)
         extents = np.ptp(pca[0] @ shape_axes.T, axis=0)
@@ -377,13 +383,12 @@ def _placed_leg(scan: Scan, placement: dict) -> tuple[_LegPlacement, str | None]
         placement["anterior_cue"],
     )
     points, faces = scan.points_mm, scan.faces
-    sample = points[:: max(len(points) // 20000, 1)]
-    if float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM:
+    if _is_body(points):
         cuts = cf.split_body_legs(points)
         distance = [np.linalg.norm(np.median(points[c.point_index], axis=0) - frame.origin_mm) for c in cuts]
         cut = cuts[int(np.argmin(distance))]
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(scan.points_mm))
-    leg = _LegPlacement(points, faces, frame, 0.0, float(placement["c_mm"]), float(placement["d_mm"]), bool(placement["d_at_window_edge"]))
+    leg = _LegPlacement(points, faces, frame, float(placement["c_mm"]), float(placement["d_mm"]), bool(placement["d_at_window_edge"]))
     return leg, placement["side"]
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import io
 import os
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import trimesh
@@ -61,7 +61,6 @@ class Scan:
     units: str
     units_detected: bool
     source_format: str
-    extra: dict = field(default_factory=dict)
 
     @property
     def mm_per_unit(self) -> float:

@@ -63,14 +63,6 @@ class PolarSections:
         """(k,) bool: sections with a usable contour."""
         return np.isfinite(self.radii_mm).all(axis=1)
 
-    def contour_points(self) -> np.ndarray:
-        """(k, a, 3) contour points in the slicing frame, mm."""
-        cos, sin = np.cos(self.angles_rad), np.sin(self.angles_rad)
-        x = self.centroids_mm[:, 0, None] + self.radii_mm * cos
-        y = self.centroids_mm[:, 1, None] + self.radii_mm * sin
-        z = np.broadcast_to(self.heights_mm[:, None], x.shape)
-        return np.stack([x, y, z], axis=-1)
-
     def circumferences(self) -> np.ndarray:
         """(k,) perimeter of each resampled contour (sum of chords, paper section 3.2), mm."""
         return polygon_perimeter(self.radii_mm, self.angles_rad)

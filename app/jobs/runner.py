@@ -104,7 +104,7 @@ class EmbeddedRunner:
             scan = ScanRepository(session).get(job.scan_id)
             return job.id, str(self.store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement
 
-    def _finish_success(self, job_id: str, scan_id_path: str, outcome: dict) -> None:
+    def _finish_success(self, job_id: str, outcome: dict) -> None:
         with self.sessions() as session, session.begin():
             jobs = JobRepository(session)
             job = jobs.get(job_id)
@@ -158,7 +158,7 @@ class EmbeddedRunner:
             log.exception("job %s failed unexpectedly", job_id)
             await asyncio.to_thread(self._finish_failure, job_id, "internal_error", f"{type(exc).__name__}: {exc}")
         else:
-            await asyncio.to_thread(self._finish_success, job_id, path, outcome)
+            await asyncio.to_thread(self._finish_success, job_id, outcome)
 
     def _restart_pool(self) -> None:
         if self.pool is not None:

@@ -26,22 +26,22 @@ from app.services.records import RecordService
 COLORMAP = "inferno"
 
 
+def fabric_from_dict(fabric: dict) -> Fabric:
+    """A validated fabric from ``{"stiffness_n_per_cm", "max_strain"}`` or ``{"table"}``
+    (the request form and the stored form are the same)."""
+    if fabric.get("table") is not None:
+        rows = fabric["table"]
+        if not isinstance(rows, list) or not all(isinstance(r, (list, tuple)) and len(r) == 2 for r in rows):
+            raise FitFailure(FailureReason.INVALID_FABRIC, "fabric.table must be a list of [strain, tension_N_per_cm] rows")
+        return Fabric.table([r[0] for r in rows], [r[1] for r in rows])
+    if fabric.get("stiffness_n_per_cm") is not None:
+        return Fabric.linear(float(fabric["stiffness_n_per_cm"]), float(fabric.get("max_strain", 1.0)))
+    raise FitFailure(FailureReason.INVALID_FABRIC, "give the fabric as stiffness_n_per_cm or as a tension-strain table")
+
+
 def inputs_from_request(data: dict) -> DesignInputs:
     """Validated design inputs from a request body (see DesignRequest in app.api.schemas)."""
-
-    def invalid(reason: FailureReason, detail: str) -> FitFailure:
-        return FitFailure(reason, detail)
-
-    fabric_in = data.get("fabric") or {}
-    if fabric_in.get("table") is not None:
-        rows = fabric_in["table"]
-        if not isinstance(rows, list) or not all(isinstance(r, (list, tuple)) and len(r) == 2 for r in rows):
-            raise invalid(FailureReason.INVALID_FABRIC, "fabric.table must be a list of [strain, tension_N_per_cm] rows")
-        fabric = Fabric.table([r[0] for r in rows], [r[1] for r in rows])
-    elif fabric_in.get("stiffness_n_per_cm") is not None:
-        fabric = Fabric.linear(float(fabric_in["stiffness_n_per_cm"]), float(fabric_in.get("max_strain", 1.0)))
-    else:
-        raise invalid(FailureReason.INVALID_FABRIC, "give the fabric as stiffness_n_per_cm or as a tension-strain table")
+    fabric = fabric_from_dict(data.get("fabric") or {})
     return DesignInputs(
         standard=str(data.get("standard", "RAL")),
         compression_class=data.get("compression_class", "II"),
@@ -58,8 +58,7 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
         "standard": inputs.standard,
         "compression_class": inputs.compression_class if inputs.targets_mmhg is None else None,
         "targets_mmHg": inputs.targets_mmhg,
-        "fabric": inputs.fabric.as_dict() if inputs.fabric.stiffness_n_per_cm is None else {
-            "stiffness_n_per_cm": inputs.fabric.stiffness_n_per_cm, "max_strain": inputs.fabric.max_strain},
+        "fabric": inputs.fabric.as_dict(),
         "hot_spot_limit_mmHg": inputs.hot_spot_limit_mmhg,
         "step_mm": inputs.step_mm,
         "resolution_mm": inputs.resolution_mm,
@@ -136,16 +135,8 @@ def knitting_csv(result: dict) -> str:
     return out.getvalue()
 
 
-def _fabric_of(inputs: dict) -> Fabric:
-    fabric = inputs["fabric"]
-    if "table" in fabric:
-        rows = fabric["table"]
-        return Fabric.table([r[0] for r in rows], [r[1] for r in rows])
-    return Fabric.linear(fabric["stiffness_n_per_cm"], fabric.get("max_strain", 1.0))
-
-
 def pressure_grid(design: Design, record: CalfRecord, n_around: int = 360):
-    return pressure_map(record.surface, design.result, _fabric_of(design.inputs), n_around)
+    return pressure_map(record.surface, design.result, fabric_from_dict(design.inputs["fabric"]), n_around)
 
 
 def pressure_map_csv(design: Design, record: CalfRecord) -> str:

@@ -65,14 +65,14 @@ class RecordService:
         next_cursor = encode_cursor(rows[-1].created_at, rows[-1].id) if more and rows else None
         return rows, next_cursor
 
-    def surface(self, record_id: str, file_format: str, around: int, along: int) -> tuple[bytes, str]:
-        record = self.get(record_id)
-        parsed = _parse(record.body)
+    @staticmethod
+    def surface(record: Record, file_format: str, around: int, along: int) -> bytes:
+        """The record's surface tessellated (around x along samples) in scan coordinates."""
         for name, value, (lo, hi) in (("around", around, AROUND_RANGE), ("along", along, ALONG_RANGE)):
             if not lo <= value <= hi:
                 raise Unprocessable(f"{name} must be between {lo} and {hi}, not {value}", code="invalid_density")
-        data = export_mesh(surface_mesh(parsed.surface, parsed.frame, n_u=around, n_v=along), file_format)
-        return data, surface_etag(record.etag, file_format, around, along)
+        parsed = _parse(record.body)
+        return export_mesh(surface_mesh(parsed.surface, parsed.frame, n_u=around, n_v=along), file_format)
 
     def measurements(self, record_id: str, extra_heights: list[float]) -> dict:
         record = self.get(record_id)
