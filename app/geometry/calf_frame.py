@@ -117,17 +117,75 @@ def perpendicular_basis(axis: np.ndarray, hint: np.ndarray | None = None) -> np.
     return np.stack([x, y, z])
 
 
-def _slab_blob_count(points_2d: np.ndarray, pixel_mm: float = 10.0) -> int:
-    """Number of separate blobs of (n, 2) points on a coarse occupancy grid."""
+def _slab_blob_sizes(points_2d: np.ndarray, pixel_mm: float = 10.0) -> np.ndarray:
+    """Sizes (occupied pixels, descending) of the separate blobs of (n, 2) points on a
+    coarse occupancy grid."""
     if len(points_2d) < 10:
-        return 0
+        return np.zeros(0, dtype=np.int64)
     cells = np.floor((points_2d - points_2d.min(axis=0)) / pixel_mm).astype(np.int64)
     grid = np.zeros(cells.max(axis=0) + 3, dtype=bool)
     grid[cells[:, 0] + 1, cells[:, 1] + 1] = True
     grid = ndimage.binary_closing(grid, iterations=1)
     labels, count = ndimage.label(grid)
-    sizes = np.bincount(labels.ravel())[1:]
+    return np.sort(np.bincount(labels.ravel())[1:])[::-1]
+
+
+def _slab_blob_count(points_2d: np.ndarray, pixel_mm: float = 10.0) -> int:
+    """Number of separate blobs of (n, 2) points on a coarse occupancy grid."""
+    sizes = _slab_blob_sizes(points_2d, pixel_mm)
+    if not sizes.size:
+        return 0
     return int((sizes >= max(3, 0.05 * sizes.max())).sum())
+
+
+#: two legs side by side: at least this share of the slabs 10-50% of the length from
+#: the feet end hold two blobs of comparable size (the smaller at least 30% of the larger)
+TWO_LEG_SLAB_SHARE = 0.7
+TWO_LEG_MIN_LENGTH_MM = 500.0
+
+
+def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
+    """Two legs joined at the hips (feet to hips, shorter than a body), cut apart; None
+    when the scan is not two legs.
+
+    Two legs stand side by side: in slabs across the main axis between 10% and 50% of
+    the length from the feet end, two blobs of comparable size (two shins; a single
+    leg, even bent at the knee, gives one blob per slab at its ends).  The shins are then
+    separated by 2-means and every point goes to the nearer side of the mid-plane.
+    """
+    centre = points_mm.mean(axis=0)
+    basis = perpendicular_basis(principal_axis(points_mm[:: max(len(points_mm) // 20000, 1)]))
+    local = (points_mm - centre) @ basis.T
+    h = local[:, 2]
+    lo, hi = h.min(), h.max()
+    length = hi - lo
+    if length < TWO_LEG_MIN_LENGTH_MM:
+        return None
+    order = np.argsort(h)
+    hs = h[order]
+    shares = []
+    for sign in (1.0, -1.0):
+        pairs = 0
+        fractions = np.linspace(0.10, 0.50, 9)
+        for f in fractions:
+            level = lo + f * length if sign > 0 else hi - f * length
+            a, b = np.searchsorted(hs, [level - 10.0, level + 10.0])
+            sizes = _slab_blob_sizes(local[order[a:b], :2])
+            pairs += int(sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0])
+        shares.append(pairs / len(fractions))
+    if max(shares) < TWO_LEG_SLAB_SHARE:
+        return None
+    sign = 1.0 if shares[0] >= shares[1] else -1.0
+    height = (h - lo) if sign > 0 else (hi - h)
+    shins = (height > 0.10 * length) & (height < 0.40 * length)
+    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(local[shins, :2][:: max(int(shins.sum()) // 20000, 1)])
+    c0, c1 = km.cluster_centers_
+    gap = np.linalg.norm(c1 - c0)
+    if gap < 60.0:
+        return None
+    side_coord = (local[:, :2] - 0.5 * (c0 + c1)) @ ((c1 - c0) / gap)
+    up = sign * basis[2]
+    return LegCut(np.flatnonzero(side_coord < 0), up), LegCut(np.flatnonzero(side_coord >= 0), up)
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,8 @@ class FailureReason(str, enum.Enum):
     NOT_A_LEG = "not_a_leg"
     NO_ANKLE = "no_ankle"
     NO_KNEE = "no_knee"
+    NO_CALF = "no_calf"
+    SEVERAL_LEGS = "several_legs"
     SIDE_NOT_FOUND = "side_not_found"
     INVALID_OPTION = "invalid_option"
     DEGENERATE_SURFACE = "degenerate_surface"

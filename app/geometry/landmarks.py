@@ -43,6 +43,13 @@ SHOULDER_FRACTION = 0.35
 FLANK_MM = 150.0
 #: re-detection keeps C within this distance of its previous height, mm
 C_HINT_MM = 40.0
+#: landmarks at the scan's edge: the girth over the last EDGE_FIT_MM of the scan is fitted
+#: by a parabola; B (or D) is taken at the edge when the parabola's minimum lies inside
+#: the scan or at most EDGE_REACH_MM beyond its edge (the ankle and knee waists are
+#: smooth minima: within 15 mm of one the girth differs from it by ~1 mm), and refused
+#: when the girth is still falling towards a minimum further out
+EDGE_FIT_MM = 40.0
+EDGE_REACH_MM = 15.0
 
 LANDMARK_NAMES = ("B", "B1", "C", "D")
 
@@ -65,12 +72,20 @@ class Landmarks:
     D: Landmark
     layer_heights_mm: np.ndarray  # (7,)
     d_at_window_edge: bool = False  # D is the bottom of its search window (no distinct minimum)
+    b_at_scan_edge: bool = False  # the scan starts at (or just above) the ankle minimum
+    d_at_scan_edge: bool = False  # the scan ends at (or just below) the knee waist
+    tape_girths_mm: dict = None  # name -> convex-hull (tape) girth of the section, mm
 
     def as_dict(self) -> dict:
-        return {
-            name: {"height_mm": getattr(self, name).height_mm, "circumference_mm": getattr(self, name).circumference_mm}
-            for name in LANDMARK_NAMES
-        }
+        out = {}
+        for name in LANDMARK_NAMES:
+            mark = getattr(self, name)
+            entry = {"height_mm": mark.height_mm, "circumference_mm": mark.circumference_mm}
+            if self.tape_girths_mm:
+                entry["tape_girth_mm"] = self.tape_girths_mm[name]
+            entry["at_scan_edge"] = bool((name == "B" and self.b_at_scan_edge) or (name == "D" and self.d_at_scan_edge))
+            out[name] = entry
+        return out
 
 
 @dataclass(frozen=True)
@@ -84,6 +99,8 @@ class FeatureHeights:
     girth_c_mm: float
     girth_d_mm: float
     d_at_window_edge: bool
+    b_at_scan_edge: bool = False
+    d_at_scan_edge: bool = False
 
 
 def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PROFILE_SMOOTHING_MM) -> np.ndarray:
@@ -118,7 +135,7 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
     return peaks, shoulders
 
 
-def _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing) -> FeatureHeights | FitFailure:
+def _check_candidate(heights, g, raw, ok, local_min, ic, bottom, top, spacing) -> FeatureHeights | FitFailure:
     """B and D around a calf candidate at index ``ic``, or the reason there are none.
 
     B is the lowest local minimum of the girth 100-350 mm below C, D the lowest local
@@ -129,18 +146,21 @@ def _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing) -> Fea
     below = (heights >= zc - ANKLE_BELOW_CALF_MM[1]) & (heights <= zc - ANKLE_BELOW_CALF_MM[0]) & ok
     if not below.any():
         return _no_ankle(zc - bottom)
+    ib, b_edge = None, False
     minima = np.flatnonzero(below & local_min)
-    if minima.size == 0:
-        return _no_ankle(zc - bottom)
-    ib = minima[np.argmin(g[minima])]
-    under = (heights < heights[ib]) & (heights >= heights[ib] - 150.0)
-    if heights[ib] - bottom < INTERIOR_MARGIN_MM or not under.any() or g[under].max() < g[ib] + 0.5:
-        return _no_ankle(zc - bottom)
+    if minima.size:
+        ib = minima[np.argmin(g[minima])]
+        under = (heights < heights[ib]) & (heights >= heights[ib] - 150.0)
+        if heights[ib] - bottom < INTERIOR_MARGIN_MM or not under.any() or g[under].max() < g[ib] + 0.5:
+            ib = None
+    if ib is None:
+        if heights[below][0] - bottom > 2 * spacing or not _minimum_reached_at_edge(heights, raw, bottom, +1):
+            return _no_ankle(zc - bottom)
+        ib, b_edge = np.flatnonzero(below)[np.argmin(g[below])], True
     if g[ic] < MIN_CALF_RATIO * g[ib]:
-        return FitFailure(
-            FailureReason.NOT_A_LEG,
+        return _no_calf(
             f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
-            f"{MIN_CALF_RATIO:.2f} x the ankle girth ({g[ib]:.0f} mm)",
+            f"{MIN_CALF_RATIO:.2f} x the ankle girth ({g[ib]:.0f} mm)"
         )
     lo, hi = zc + KNEE_ABOVE_CALF_MM[0], zc + KNEE_ABOVE_CALF_MM[1]
     above = (heights >= lo) & (heights <= hi) & ok
@@ -152,8 +172,11 @@ def _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing) -> Fea
     else:  # no distinct minimum: the girth levels off and rises; D is the window's bottom
         id_ = np.flatnonzero(above)[0]
     over = (heights > heights[id_]) & (heights <= heights[id_] + 150.0)
+    d_edge = False
     if top - heights[id_] < INTERIOR_MARGIN_MM or not over.any() or g[over].max() < g[id_] + 0.5:
-        return _no_knee(top - zc)
+        if top - heights[above][-1] > 2 * spacing or not _minimum_reached_at_edge(heights, raw, top, -1):
+            return _no_knee(top - zc)
+        id_, d_edge = np.flatnonzero(above)[np.argmin(g[above])], True
     if g[id_] < MIN_KNEE_RATIO * g[ib]:
         return FitFailure(
             FailureReason.NO_KNEE,
@@ -162,8 +185,28 @@ def _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing) -> Fea
     return FeatureHeights(
         float(heights[ib]), float(zc), float(heights[id_]),
         float(g[ib]), float(g[ic]), float(g[id_]),
-        bool(heights[id_] - lo < 2 * spacing),
+        bool(heights[id_] - lo < 2 * spacing) and not d_edge,
+        b_edge, d_edge,
     )
+
+
+def _minimum_reached_at_edge(heights: np.ndarray, raw: np.ndarray, edge: float, inward: int) -> bool:
+    """Does the girth reach its waist minimum at the scan's edge (within EDGE_REACH_MM)?
+
+    A parabola g(x) = a + b x + c x^2 is fitted by least squares to the (unsmoothed)
+    girth over the last :data:`EDGE_FIT_MM` of the scan, x the distance from the edge
+    into the scan (``inward`` +1 for the bottom edge, -1 for the top).  True when the
+    girth does not fall into the scan's edge (b <= 0: the minimum is inside) or the
+    parabola's vertex lies at most :data:`EDGE_REACH_MM` beyond the edge.
+    """
+    x = (heights - edge) * inward
+    near = (x >= 0) & (x <= EDGE_FIT_MM) & np.isfinite(raw)
+    if near.sum() < 5:
+        return False
+    c, b, _ = np.polyfit(x[near], raw[near], 2)
+    if b <= 0:
+        return True
+    return bool(c > 0 and -b / (2 * c) >= -EDGE_REACH_MM)
 
 
 def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None) -> FeatureHeights:
@@ -202,15 +245,12 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
     if peaks.size == 0 and shoulders.size == 0:
-        raise FitFailure(
-            FailureReason.NOT_A_LEG,
-            "the circumference profile has no calf maximum: the scan does not bulge like a calf",
-        )
+        raise _no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
     failures: list[tuple[int, float, FitFailure]] = []
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
-            outcome = _check_candidate(heights, g, ok, local_min, ic, bottom, top, spacing)
+            outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
             if isinstance(outcome, FitFailure):
                 failures.append((_FAILURE_STAGE[outcome.reason], float(g[ic]), outcome))
             else:
@@ -230,22 +270,32 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
 
 
 #: how far a candidate got before it failed (higher is more informative)
-_FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
+_FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
 
 
 def _no_ankle(span_mm: float) -> FitFailure:
     return FitFailure(
         FailureReason.NO_ANKLE,
-        "no ankle minimum below the calf maximum in the scanned range "
-        f"(the scan reaches {span_mm:.0f} mm below the calf maximum and its girth keeps falling)",
+        "the ankle (B, the narrowest part of the lower leg above the ankle bones) is not in the "
+        f"scan: the scan reaches {span_mm:.0f} mm below the calf maximum, where the leg is still "
+        "narrowing. Re-scan from below the ankle bones (best: include the heel and foot).",
     )
 
 
 def _no_knee(span_mm: float) -> FitFailure:
     return FitFailure(
         FailureReason.NO_KNEE,
-        "no minimum below the knee above the calf maximum in the scanned range "
-        f"(the scan reaches {span_mm:.0f} mm above the calf maximum)",
+        "the knee waist (D, the narrowest part of the leg below the knee) is not in the scan: the "
+        f"scan reaches {span_mm:.0f} mm above the calf maximum, where the leg is still narrowing. "
+        "Re-scan up to at least 3 cm above the knee joint (over the kneecap).",
+    )
+
+
+def _no_calf(detail: str) -> FitFailure:
+    return FitFailure(
+        FailureReason.NO_CALF,
+        f"{detail}. The scan must hold the whole lower leg: from below the ankle bones to above "
+        "the knee joint, with the calf in between.",
     )
 
 

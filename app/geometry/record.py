@@ -1,14 +1,20 @@
 """The calf record: the compact, exact result of a fit, as a frozen dataclass and JSON.
 
-JSON layout (``schema_version`` 1; all lengths in millimetres, ``units`` = "mm")::
+JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")::
 
     schema_version, units, side ("left" | "right" | null)
+    side_inference {side, confidence, source ("given" | "body" | "foot" | null)}
+    warnings  [sentences]: what the fit noticed about the scan (landmarks at its edge,
+              floor or pieces removed, side unknown)
     surface   {degree_u, degree_v, knots_u, knots_v, control_points [nu][nv][3],
                weights [nu][nv], periodic_u}
     frame     4x4 matrix taking calf-frame mm to the scan's own coordinates and units
               (so it includes the uniform scale 1/mm_per_unit)
     scan      {units, format, n_points, anterior_cue}
-    landmarks {B, B1, C, D: {height_mm, circumference_mm}}   (calf-frame z; B = 0)
+    landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge}}
+              (calf-frame z; B = 0).  circumference_mm is the perimeter of the section
+              (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
+              (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
     layers    {heights_mm [7], feature_angles_deg [m]}
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
@@ -20,6 +26,9 @@ around the leg and is periodic but written unwrapped - the first ``degree_u`` co
 columns are repeated at the end, ``knots_u`` has nu + degree_u + 1 entries and the
 valid u domain is [knots_u[degree_u], knots_u[nu]]; v runs from B (layer 0) to D.
 Error indices are fractions: 0.0037 means 0.37%.
+
+Version 1 records (before tape girths, warnings and side inference) are still read as
+they are: their landmarks simply have no ``tape_girth_mm`` and no warnings.
 """
 
 from __future__ import annotations
@@ -34,7 +43,8 @@ from app.geometry.fit import FitResult
 from app.geometry.landmarks import LANDMARK_NAMES
 from app.geometry.nurbs import NurbsSurface
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+READABLE_VERSIONS = (1, 2)
 
 
 @dataclass(frozen=True)
@@ -49,13 +59,19 @@ class CalfRecord:
     fit: dict = field(default_factory=dict)
     scan: dict = field(default_factory=dict)
     schema_version: int = SCHEMA_VERSION
+    warnings: tuple = ()
+    side_inference: dict | None = None
 
     def to_dict(self) -> dict:
         s = self.surface
+        extra = {}
+        if self.schema_version >= 2:
+            extra = {"warnings": list(self.warnings), "side_inference": self.side_inference}
         return {
             "schema_version": self.schema_version,
             "units": "mm",
             "side": self.side,
+            **extra,
             "surface": {
                 "degree_u": s.degree_u,
                 "degree_v": s.degree_v,
@@ -100,11 +116,19 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
         "per_layer": list(err.per_layer),
         "d_at_window_edge": bool(result.landmarks.d_at_window_edge),
     }
+    placement = result.placement
+    side_inference = {
+        "side": result.side,
+        "confidence": None if placement is None else placement.side_confidence,
+        "source": None if placement is None else placement.side_source,
+    }
     return CalfRecord(
         surface=result.surface,
         frame=result.frame.matrix(),
         landmarks=result.landmarks.as_dict(),
         side=result.side,
+        warnings=tuple(result.warnings),
+        side_inference=side_inference,
         layers={
             "heights_mm": result.landmarks.layer_heights_mm.tolist(),
             "feature_angles_deg": np.degrees(result.feature_angles_rad).tolist(),
@@ -140,8 +164,8 @@ def parse_record(data: dict) -> CalfRecord:
     if not isinstance(data, dict):
         raise _invalid("a record must be a JSON object")
     version = data.get("schema_version")
-    if version != SCHEMA_VERSION:
-        raise _invalid(f"schema_version must be {SCHEMA_VERSION}, got {version!r}")
+    if version not in READABLE_VERSIONS or isinstance(version, bool):
+        raise _invalid(f"schema_version must be one of {', '.join(map(str, READABLE_VERSIONS))}, got {version!r}")
     if data.get("units", "mm") != "mm":
         raise _invalid("units must be 'mm'")
     surf = data.get("surface")
@@ -196,11 +220,30 @@ def parse_record(data: dict) -> CalfRecord:
         if not (math.isfinite(h) and math.isfinite(c)) or c <= 0:
             raise _invalid(f"landmarks.{name} must be finite with a positive circumference")
         clean_landmarks[name] = {"height_mm": h, "circumference_mm": c}
+        if entry.get("tape_girth_mm") is not None:
+            try:
+                tape = float(entry["tape_girth_mm"])
+            except (TypeError, ValueError) as exc:
+                raise _invalid(f"landmarks.{name}.tape_girth_mm must be a number") from exc
+            if not math.isfinite(tape) or tape <= 0:
+                raise _invalid(f"landmarks.{name}.tape_girth_mm must be finite and positive")
+            clean_landmarks[name]["tape_girth_mm"] = tape
+        if "at_scan_edge" in entry:
+            clean_landmarks[name]["at_scan_edge"] = bool(entry["at_scan_edge"])
     side = data.get("side")
     if side not in (None, "left", "right"):
         raise _invalid("side must be 'left', 'right' or null")
+    warnings = data.get("warnings") or []
+    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
+        raise _invalid("warnings must be a list of sentences")
+    side_inference = data.get("side_inference")
+    if side_inference is not None and not isinstance(side_inference, dict):
+        raise _invalid("side_inference must be an object or null")
     surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
     return CalfRecord(
+        schema_version=int(version),
+        warnings=tuple(warnings),
+        side_inference=side_inference,
         surface=surface,
         frame=frame,
         landmarks=clean_landmarks,

@@ -13,9 +13,8 @@ so inner shells and folds never shorten the skin contour.  Rays that hit nothing
 in the mesh) are filled by periodic interpolation in the polar domain between the
 nearest hit rays (the paper's "curve fitting in the polar coordinate system").
 
-Point clouds: the points within half a spacing of each plane are binned by angle and a
-truncated Fourier series r(theta) (12 harmonics, with a bending-energy penalty) is
-fitted by weighted least squares; it bridges gaps and averages scanner noise.
+Point clouds: a robust polar curve fit of each slab of points,
+:mod:`app.geometry.point_sections`.
 
 Units: millimetres throughout.
 """
@@ -28,10 +27,6 @@ import numpy as np
 
 #: a section whose rays hit the contour less often than this is treated as missing
 MIN_RAY_COVERAGE = 0.5
-#: harmonics of the polar Fourier fit used for point clouds
-POINT_CLOUD_HARMONICS = 12
-#: weight of the bending-energy penalty of the point-cloud Fourier fit
-FOURIER_SMOOTHING = 0.5
 
 
 @dataclass(frozen=True)
@@ -251,93 +246,6 @@ def slice_mesh_polar(
     return PolarSections(heights, centroids, radii, angles, coverage)
 
 
-def _fourier_design(angles: np.ndarray, harmonics: int) -> np.ndarray:
-    """(len(angles), 2*harmonics + 1) design matrix [1, cos t, sin t, cos 2t, ...]."""
-    order = np.arange(1, harmonics + 1)
-    args = angles[:, None] * order[None, :]
-    return np.concatenate([np.ones((len(angles), 1)), np.cos(args), np.sin(args)], axis=1)
-
-
-def _polar_fourier_fit(
-    plane: np.ndarray,
-    xy: np.ndarray,
-    centroids: np.ndarray,
-    n_planes: int,
-    angles: np.ndarray,
-    harmonics: int,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Weighted least-squares Fourier fit of r(theta) per plane; returns radii, coverage."""
-    n_angles = len(angles)
-    rel = xy - centroids[plane]
-    theta = np.arctan2(rel[:, 1], rel[:, 0])
-    r = np.hypot(rel[:, 0], rel[:, 1])
-    bins = np.rint(theta / (2.0 * np.pi / n_angles)).astype(np.int64) % n_angles
-    flat = plane * n_angles + bins
-    count = np.bincount(flat, minlength=n_planes * n_angles).reshape(n_planes, n_angles)
-    sum_r = np.bincount(flat, weights=r, minlength=n_planes * n_angles).reshape(n_planes, n_angles)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean_r = np.where(count > 0, sum_r / np.maximum(count, 1), 0.0)
-    weight = (count > 0).astype(np.float64)
-    design = _fourier_design(angles, harmonics)
-    normal = np.einsum("ka,aj,al->kjl", weight, design, design)
-    # bending-energy penalty ~ k^4 on harmonic k: negligible where data are dense, keeps
-    # the contour smooth across gaps
-    order = np.concatenate([[0.0], np.arange(1, harmonics + 1), np.arange(1, harmonics + 1)])
-    ridge = FOURIER_SMOOTHING * (order / harmonics) ** 4 + 1e-9
-    normal += np.diag(ridge)[None] * n_angles
-    rhs = np.einsum("ka,aj,ka->kj", weight, design, mean_r)
-    coefficients = np.linalg.solve(normal, rhs[..., None])[..., 0]
-    coverage = weight.mean(axis=1)
-    radii = coefficients @ design.T
-    radii[coverage < MIN_RAY_COVERAGE] = np.nan
-    return radii, coverage
-
-
-def slice_points_polar(
-    points: np.ndarray,
-    heights: np.ndarray,
-    n_angles: int = 72,
-    half_thickness: float | None = None,
-    harmonics: int = POINT_CLOUD_HARMONICS,
-) -> PolarSections:
-    """Polar-resampled sections of a point cloud (see module docstring).
-
-    points (n, 3) mm in the slicing frame; heights (k,) ascending mm.  Points within
-    ``half_thickness`` (default: half the median spacing, at least 1 mm) of a plane
-    belong to it.
-    """
-    heights = np.asarray(heights, dtype=np.float64)
-    k = len(heights)
-    angles = ray_angles(n_angles)
-    if half_thickness is None:
-        # thick enough for ~4 points per ray on average, never thinner than 1 mm
-        spacing = np.median(np.diff(heights)) if k > 1 else 2.0
-        density = len(points) / max(np.ptp(points[:, 2]), 1e-9)  # points per mm of height
-        half_thickness = max(0.5 * spacing, 1.0, 2.0 * n_angles / density)
-    order = np.argsort(points[:, 2], kind="stable")
-    z_sorted = points[order, 2]
-    lo = np.searchsorted(z_sorted, heights - half_thickness, side="left")
-    hi = np.searchsorted(z_sorted, heights + half_thickness, side="right")
-    plane, rank = _plane_pairs(lo, hi)
-    xy = points[order[rank], :2]
-    count = np.bincount(plane, minlength=k)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroids = np.stack(
-            [np.bincount(plane, weights=xy[:, i], minlength=k) / count for i in range(2)], axis=1
-        )
-    radii = np.full((k, n_angles), np.nan)
-    coverage = np.zeros(k)
-    if plane.size:
-        for _ in range(2):  # second pass re-centres on the fitted contour's centroid
-            radii, coverage = _polar_fourier_fit(plane, xy, np.nan_to_num(centroids), k, angles, harmonics)
-            ok = np.isfinite(radii).all(axis=1)
-            contour = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=-1)
-            shift = polygon_centroid(contour)
-            centroids = np.where(ok[:, None], np.nan_to_num(centroids) + shift, np.nan)
-    radii[~np.isfinite(centroids).all(axis=1)] = np.nan
-    return PolarSections(heights, centroids, radii, angles, coverage)
-
-
 def polygon_centroid(contour: np.ndarray) -> np.ndarray:
     """Area centroid of closed polygons: contour (..., a, 2) -> (..., 2) (shoelace)."""
     x, y = contour[..., 0], contour[..., 1]
@@ -350,10 +258,45 @@ def polygon_centroid(contour: np.ndarray) -> np.ndarray:
     return np.stack([cx, cy], axis=-1)
 
 
+def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+    """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
+    section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm.
+
+    Meshes: the hull of the exact plane-section segments.  Point clouds: the hull of the
+    robust polar fit of each slab on 360 rays.  NaN where there is no section.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    heights = np.asarray(heights, dtype=np.float64)
+    out = np.full(len(heights), np.nan)
+    if faces is not None and len(faces):
+        plane, seg = mesh_section_segments(points, faces, heights)
+        rings = [seg[plane == k].reshape(-1, 2) for k in range(len(heights))]
+    else:
+        from app.geometry.point_sections import slice_points_polar
+
+        sections = slice_points_polar(points, heights, 360)
+        a = sections.angles_rad
+        contour = np.stack([sections.radii_mm * np.cos(a), sections.radii_mm * np.sin(a)], axis=-1)
+        rings = [c for c in contour]
+    for k, ring in enumerate(rings):  # a handful of landmark planes
+        if len(ring) < 3 or not np.isfinite(ring).all():
+            continue
+        try:
+            hull = ring[ConvexHull(ring).vertices]
+        except QhullError:
+            continue
+        out[k] = np.linalg.norm(np.roll(hull, -1, axis=0) - hull, axis=1).sum()
+    return out
+
+
 def slice_polar(
     points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, n_angles: int = 72, recentre: bool = True
 ) -> PolarSections:
-    """Dispatch to :func:`slice_mesh_polar` or :func:`slice_points_polar`."""
+    """Dispatch to :func:`slice_mesh_polar` or
+    :func:`app.geometry.point_sections.slice_points_polar`."""
     if faces is not None and len(faces):
         return slice_mesh_polar(points, faces, heights, n_angles, recentre)
+    from app.geometry.point_sections import slice_points_polar  # it builds on this module
+
     return slice_points_polar(points, heights, n_angles)

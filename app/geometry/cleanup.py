@@ -1,0 +1,187 @@
+"""Scan clean-up before the leg is looked for: floor or platform, spikes, pieces.
+
+Three steps, each a stated geometric rule (units mm; points (n, 3), faces (f, 3)):
+
+1. **Floor or scanner platform** (:func:`find_floor`).  The dominant plane is found by
+   RANSAC (256 fixed-seed triples over a 20k-point stride sample, inliers within
+   :data:`FLOOR_TOLERANCE_MM`, refined by least squares).  It is a floor, not skin, when
+   (a) its inliers spread at least :data:`FLOOR_MIN_WIDTH_MM` across their narrower
+   in-plane axis - wider than any foot (ANSUR II's widest foot is 126 mm) and no patch of
+   skin is that flat - and (b) at least a quarter of them lie outside the footprint of
+   the rest of the scan projected on the plane: a floor reaches past what stands on it,
+   a flattened back or calf does not.  Everything within the tolerance of the plane or
+   beyond it (the platform's body) is removed.
+2. **Spikes** (meshes, :func:`spike_faces`): needle triangles whose longest edge is over
+   :data:`SPIKE_EDGE_FACTOR` times the median edge and over 20 mm, and whose area is
+   under 5% of that edge squared.  Scanner streaks in point clouds are left to the robust
+   polar fit (:mod:`app.geometry.point_sections`).
+3. **Pieces** (:func:`scan_pieces`): points are joined when they share or touch a voxel
+   of :data:`VOXEL_FACTOR` times the median point spacing (at least 6 mm); pieces with
+   fewer than :data:`MIN_PIECE_FRACTION` of the points (stray points, dust) are dropped.
+   Which of the rest are legs is decided by the leg search (a detached fragment has no
+   ankle and knee).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+FLOOR_TOLERANCE_MM = 3.0
+FLOOR_MIN_WIDTH_MM = 150.0
+FLOOR_OUTSIDE_FRACTION = 0.25
+RANSAC_TRIALS = 256
+RANSAC_SAMPLE = 20_000
+SPIKE_EDGE_FACTOR = 10.0
+VOXEL_FACTOR = 3.0
+MIN_VOXEL_MM = 6.0
+MIN_PIECE_FRACTION = 0.02
+
+
+@dataclass(frozen=True)
+class Floor:
+    """A removed floor plane: unit ``normal`` (3,) pointing to the leg, a ``point`` (3,)
+    on it, and how many scan points it took."""
+
+    normal: np.ndarray
+    point: np.ndarray
+    n_removed: int
+
+
+@dataclass(frozen=True)
+class CleanScan:
+    """A scan after clean-up: ``points`` (n, 3) mm, ``faces`` (f, 3) or None, ``pieces``
+    (list of point-index arrays, largest first), what was removed (``floor``, counts)."""
+
+    points: np.ndarray
+    faces: np.ndarray | None
+    pieces: list
+    floor: Floor | None
+    n_spike_faces: int
+    n_stray_points: int
+
+
+def _stride_sample(points: np.ndarray, count: int) -> np.ndarray:
+    return points[:: max(len(points) // count, 1)]
+
+
+def find_floor(points: np.ndarray) -> Floor | None:
+    """The floor or platform plane under the scan, or None (rule 1 of the docstring)."""
+    sample = _stride_sample(points, RANSAC_SAMPLE)
+    if len(sample) < 100:
+        return None
+    rng = np.random.default_rng(0)
+    triples = sample[rng.integers(0, len(sample), size=(RANSAC_TRIALS, 3))]
+    normals = np.cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
+    norm = np.linalg.norm(normals, axis=1)
+    good = norm > 1e-6
+    normals = normals[good] / norm[good, None]
+    offsets = np.einsum("kd,kd->k", normals, triples[good, 0])
+    distance = np.abs(sample @ normals.T - offsets)  # (s, k)
+    best = int(np.argmax((distance < FLOOR_TOLERANCE_MM).sum(axis=0)))
+    inliers = sample[distance[:, best] < FLOOR_TOLERANCE_MM]
+    if len(inliers) < 0.02 * len(sample):
+        return None
+    centre = inliers.mean(axis=0)
+    _, _, vt = np.linalg.svd(inliers - centre, full_matrices=False)
+    normal = vt[2]
+    signed = (sample - centre) @ normal
+    on_plane = np.abs(signed) < FLOOR_TOLERANCE_MM
+    rest = sample[~on_plane]
+    if len(rest) < 100:
+        return None
+    if np.median(signed[~on_plane]) < 0:
+        normal, signed = -normal, -signed
+    in_plane = np.stack([vt[0], vt[1]])
+    flat = (sample[on_plane] - centre) @ in_plane.T
+    spread = np.percentile(flat, 97.5, axis=0) - np.percentile(flat, 2.5, axis=0)
+    if spread.min() < FLOOR_MIN_WIDTH_MM:
+        return None
+    above = (rest - centre) @ in_plane.T
+    lo, hi = above.min(axis=0), above.max(axis=0)
+    outside = ((flat < lo) | (flat > hi)).any(axis=1).mean()
+    if outside < FLOOR_OUTSIDE_FRACTION:
+        return None
+    removed = int(((points - centre) @ normal < FLOOR_TOLERANCE_MM).sum())
+    return Floor(normal, centre, removed)
+
+
+def spike_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """(f,) bool: needle triangles sticking out of the skin (rule 2 of the docstring)."""
+    a, b, c = points[faces[:, 0]], points[faces[:, 1]], points[faces[:, 2]]
+    edges = np.stack([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)], 1)
+    longest = edges.max(axis=1)
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    limit = max(SPIKE_EDGE_FACTOR * float(np.median(edges)), 20.0)
+    return (longest > limit) & (area < 0.05 * longest**2)
+
+
+def point_spacing(points: np.ndarray) -> float:
+    """Median nearest-neighbour distance of a 5k-point stride sample, mm."""
+    sample = _stride_sample(points, 5000)
+    distance, _ = cKDTree(points).query(sample, k=2)
+    return float(np.median(distance[:, 1]))
+
+
+def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
+    """(n,) piece label of every point: points in the same or touching voxels (26
+    neighbours) are joined.  Sparse: only occupied voxels are kept (no dense grid)."""
+    cells = np.floor((points - points.min(axis=0)) / voxel_mm).astype(np.int64)
+    dims = cells.max(axis=0) + 3
+    key = ((cells[:, 0] + 1) * dims[1] + cells[:, 1] + 1) * dims[2] + cells[:, 2] + 1
+    unique, inverse = np.unique(key, return_inverse=True)
+    rows, cols = [], []
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                if (dx, dy, dz) <= (0, 0, 0):
+                    continue  # each neighbour pair once
+                neighbour = unique + (dx * dims[1] + dy) * dims[2] + dz
+                at = np.searchsorted(unique, neighbour)
+                at = np.minimum(at, len(unique) - 1)
+                hit = unique[at] == neighbour
+                rows.append(np.flatnonzero(hit))
+                cols.append(at[hit])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(len(unique), len(unique)))
+    _, labels = connected_components(graph, directed=False)
+    return labels[inverse.reshape(-1)]
+
+
+def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
+    """Floor, spikes and stray pieces removed; the remaining pieces listed (docstring)."""
+    keep = np.ones(len(points), dtype=bool)
+    floor = find_floor(points)
+    if floor is not None:
+        keep &= (points - floor.point) @ floor.normal >= FLOOR_TOLERANCE_MM
+    n_spikes = 0
+    if faces is not None:
+        spikes = spike_faces(points, faces)
+        n_spikes = int(spikes.sum())
+        faces = faces[~spikes & keep[faces].all(axis=1)]
+        used = np.zeros(len(points), dtype=bool)
+        used[faces.ravel()] = True
+        keep &= used
+    index = np.flatnonzero(keep)
+    kept = points[index]
+    voxel = max(VOXEL_FACTOR * point_spacing(kept), MIN_VOXEL_MM)
+    labels = voxel_pieces(kept, voxel)
+    sizes = np.bincount(labels)
+    big = np.flatnonzero(sizes >= MIN_PIECE_FRACTION * len(kept))
+    big = big[np.argsort(-sizes[big])]
+    in_piece = np.isin(labels, big)
+    # renumber the kept points and their faces
+    final = index[in_piece]
+    remap = np.full(len(points), -1, dtype=np.int64)
+    remap[final] = np.arange(len(final))
+    new_faces = None
+    if faces is not None:
+        mapped = remap[faces]
+        new_faces = mapped[(mapped >= 0).all(axis=1)]
+    labels_final = labels[in_piece]
+    pieces = [np.flatnonzero(labels_final == b) for b in big]
+    return CleanScan(points[final], new_faces, pieces, floor, n_spikes, int((~in_piece).sum()))

@@ -1,0 +1,520 @@
+"""Finding the leg in a scan and placing its calf frame (paper section 2.1).
+
+One room for everything between a loaded scan and the calf frame; :func:`place_leg`
+returns a :class:`PlacedLeg` (the leg's points and faces) whose :class:`LegPlacement`
+is plain, serialisable data that an upload check hands to the fit
+(:func:`replace_leg` rebuilds the leg from it without searching again).
+
+Steps (mm throughout):
+1. clean-up (:mod:`app.geometry.cleanup`): floor or platform, spikes, stray pieces;
+2. candidate legs: each remaining piece; a whole body (longer than
+   :data:`app.geometry.calf_frame.BODY_MIN_LENGTH_MM`) or two legs joined at the hips
+   (two shins side by side, :func:`app.geometry.calf_frame.split_two_legs`) is cut into
+   its legs;
+3. each candidate is placed (:func:`_place_candidate`): area-weighted PCA axis, then the
+   line through the centroids of the compact slabs (a flat foot does not drag it); for a
+   bent knee, the straight runs of the leg's centre line (:func:`_shank_axes`) are
+   tried too, so the axis is the shank's, not the body's; the circumference profile
+   gives B, C, D (:func:`app.geometry.landmarks.find_feature_heights`), both ends tried
+   when the scan's up is unknown; the calf's own PCA axis (B to D) is adopted;
+   anterior from the foot, else opposite the calf bulge; origin at the B centroid;
+4. the legs found: none - the failure of the largest candidate; one - it; several - the
+   one named by ``side``, or :data:`FailureReason.SEVERAL_LEGS` listing them;
+5. a single leg's side, when not given: from its foot (:mod:`app.geometry.side`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry import calf_frame as cf
+from app.geometry.cleanup import CleanScan, clean_scan
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.landmarks import FeatureHeights, find_feature_heights
+from app.geometry.scan_io import Scan
+from app.geometry.sections import PolarSections, slice_polar
+from app.geometry.side import infer_side
+
+#: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
+#: is longer than it is wide; a ball or a box is not
+MIN_ASPECT = 1.2
+#: a piece shorter than this cannot hold an ankle, a calf and a knee waist, mm
+#: (ANSUR II: lateral malleolus to tibiale is at least ~300 mm)
+MIN_LEG_LENGTH_MM = 200.0
+#: slabs of the surface whose spread is rounder than this (major/minor axis) are leg-like;
+#: a 55 x 40 mm ellipse is 1.4, a footprint 2.5 or more
+COMPACT_RATIO = 1.6
+SLAB_MM = 5.0
+PCA_SAMPLES = 30_000
+CENTROID_LINE_ITERATIONS = 4
+#: spacing of the coarse profile used to find B, C, D along the whole leg, mm
+COARSE_SPACING_MM = 2.0
+#: spacing of the first profile over the whole scan (before the calf is known), mm
+FIRST_SPACING_MM = 3.0
+#: the calf axis is re-estimated by PCA until it moves less than this, degrees
+AXIS_TOLERANCE_DEG = 0.5
+MAX_AXIS_ITERATIONS = 2
+#: an axis update smaller than this (degrees) keeps the landmarks without re-slicing: a
+#: 2 degree tilt moves a plane by +-1.7 mm across a 50 mm radius and its girth by 0.06%
+REDETECT_DEG = 2.0
+#: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
+COARSE_ANGLES = 36
+#: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
+PROFILE_MARGIN_MM = 70.0
+#: centre-line runs for bent legs: bins along the leg, and the straightness tolerance
+CENTRE_LINE_BIN_MM = 15.0
+BEND_TOLERANCE_MM = 25.0
+
+
+@dataclass(frozen=True)
+class LegPlacement:
+    """Where the calf is in a scan: JSON-ready, to hand from the upload check to the fit.
+
+    rotation (3, 3) rows x, y (anterior), z (up) in scan mm; origin_mm (3,) at B;
+    c_mm, d_mm heights of C and D above B; the edge flags; the side and where it came
+    from (``given``, ``body`` - from the other leg -, ``foot``, or None) with a
+    confidence in [0.5, 1]; ``piece`` and ``half`` say which cleaned piece and which
+    leg of it; ``warnings`` in words.
+    """
+
+    rotation: np.ndarray
+    origin_mm: np.ndarray
+    mm_per_unit: float
+    anterior_cue: str
+    c_mm: float
+    d_mm: float
+    d_at_window_edge: bool = False
+    b_at_scan_edge: bool = False
+    d_at_scan_edge: bool = False
+    side: str | None = None
+    side_source: str | None = None
+    side_confidence: float | None = None
+    piece: int = 0
+    half: int = -1
+    warnings: tuple = ()
+
+    @property
+    def frame(self) -> cf.CalfFrame:
+        return cf.CalfFrame(self.rotation, self.origin_mm, self.mm_per_unit, self.anterior_cue)
+
+    def to_dict(self) -> dict:
+        return {
+            "rotation": np.asarray(self.rotation).tolist(), "origin_mm": np.asarray(self.origin_mm).tolist(),
+            "mm_per_unit": self.mm_per_unit, "anterior_cue": self.anterior_cue,
+            "c_mm": self.c_mm, "d_mm": self.d_mm, "d_at_window_edge": self.d_at_window_edge,
+            "b_at_scan_edge": self.b_at_scan_edge, "d_at_scan_edge": self.d_at_scan_edge,
+            "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
+            "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "LegPlacement":
+        return cls(
+            rotation=np.asarray(data["rotation"], dtype=float), origin_mm=np.asarray(data["origin_mm"], dtype=float),
+            mm_per_unit=float(data["mm_per_unit"]), anterior_cue=str(data["anterior_cue"]),
+            c_mm=float(data["c_mm"]), d_mm=float(data["d_mm"]),
+            d_at_window_edge=bool(data.get("d_at_window_edge", False)),
+            b_at_scan_edge=bool(data.get("b_at_scan_edge", False)), d_at_scan_edge=bool(data.get("d_at_scan_edge", False)),
+            side=data.get("side"), side_source=data.get("side_source"), side_confidence=data.get("side_confidence"),
+            piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
+        )
+
+
+@dataclass(frozen=True)
+class PlacedLeg:
+    """A leg cut out of its scan (scan mm: points (n, 3), faces (f, 3) or None) and its
+    placement."""
+
+    points: np.ndarray
+    faces: np.ndarray | None
+    placement: LegPlacement
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    points: np.ndarray
+    faces: np.ndarray | None
+    up: np.ndarray | None
+    piece: int
+    half: int
+    n_points: int = field(default=0)
+
+
+def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None):
+    """Coarse circumference profile along z (36 rays), for finding B, C, D.
+
+    The whole leg every :data:`FIRST_SPACING_MM`; a window ``z_range`` every
+    :data:`COARSE_SPACING_MM`.  Returns heights (k,), girths (k,), the sections.
+    """
+    z = local[:, 2]
+    if z_range is None:
+        lo, hi, spacing = z.min(), z.max(), FIRST_SPACING_MM
+    else:
+        lo, hi, spacing = max(z.min(), z_range[0]), min(z.max(), z_range[1]), COARSE_SPACING_MM
+    # planes at whole multiples of the spacing from the leg's centroid: the same planes
+    # whichever way round the scan comes
+    heights = np.arange(np.ceil((lo + 1.0) / spacing), np.floor((hi - 1.0) / spacing) + 1) * spacing
+    if len(heights) < 20:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
+    sections = slice_polar(local, faces, heights, COARSE_ANGLES, recentre=False)
+    return heights, sections.circumferences(), sections
+
+
+def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):
+    """The same profile seen from the other end: z -> -z, x -> -x, y kept (a rotation
+    by 180 degrees about y), so that nothing has to be sliced again."""
+    n = len(sections.angles_rad)
+    rays = (n // 2 - np.arange(n)) % n  # theta -> pi - theta
+    mirrored = PolarSections(
+        -heights[::-1],
+        sections.centroids_mm[::-1] * np.array([-1.0, 1.0]),
+        sections.radii_mm[::-1][:, rays],
+        sections.angles_rad,
+        sections.coverage[::-1],
+    )
+    return -heights[::-1], girth[::-1], mirrored
+
+
+def _pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Area-weighted surface samples, thinned by a fixed stride to at most 30,000 (the
+    principal axes of 30k samples of a leg agree with all of them to ~0.1 degree)."""
+    samples, weights = cf.surface_samples(points, faces)
+    stride = max(len(samples) // PCA_SAMPLES, 1)
+    return samples[::stride], None if weights is None else weights[::stride]
+
+
+def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray | None:
+    """Direction (3,), in the samples' frame, of the line through the centroids of the
+    compact slabs of the surface.
+
+    The surface samples are binned into :data:`SLAB_MM` slabs along z; each slab's
+    weighted centroid and 2x2 covariance are accumulated with bincount.  A slab counts
+    as leg-like when its spread is nearly round (sqrt of the eigenvalue ratio below
+    :data:`COMPACT_RATIO`): a shin is, a footprint is not.  Returns None when fewer
+    than 10 slabs qualify.
+    """
+    w = np.ones(len(local_samples)) if weights is None else weights
+    z = local_samples[:, 2]
+    slab = np.floor((z - z.min()) / SLAB_MM).astype(np.int64)
+    n = int(slab.max()) + 1
+    total = np.bincount(slab, weights=w, minlength=n)
+    keep = total > 0
+    moments = {}
+    x, y = local_samples[:, 0], local_samples[:, 1]
+    for name, values in (("x", x), ("y", y), ("xx", x * x), ("yy", y * y), ("xy", x * y), ("z", z)):
+        moments[name] = np.bincount(slab, weights=w * values, minlength=n)[keep] / total[keep]
+    cxx = moments["xx"] - moments["x"] ** 2
+    cyy = moments["yy"] - moments["y"] ** 2
+    cxy = moments["xy"] - moments["x"] * moments["y"]
+    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy**2
+    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+    small, large = half_trace - root, half_trace + root
+    compact = (small > 0) & (large < COMPACT_RATIO**2 * np.maximum(small, 1e-12))
+    if compact.sum() < 10:
+        return None
+    centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
+    direction = cf.principal_axis(centres, total[keep][compact])
+    return direction if direction[2] > 0 else -direction
+
+
+def _shank_axes(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> list[np.ndarray]:
+    """Directions (3,) of the straight runs of a bent leg's centre line, longest first.
+
+    The centre line is followed by the centroids of :data:`CENTRE_LINE_BIN_MM` bins along
+    the main axis, then split where it bends (Douglas-Peucker: a run is straight when no
+    centroid lies more than :data:`BEND_TOLERANCE_MM` off its chord).  A knee bent by up
+    to 100 degrees gives two runs, shank and thigh; both are returned, and the landmark
+    search decides which one has an ankle, a calf and a knee waist.
+    """
+    w = np.ones(len(samples)) if weights is None else weights
+    z = samples @ axis
+    slab = np.floor((z - z.min()) / CENTRE_LINE_BIN_MM).astype(np.int64)
+    total = np.bincount(slab, weights=w)
+    keep = total > 0.2 * np.median(total[total > 0])
+    centres = np.stack([np.bincount(slab, weights=w * samples[:, i]) for i in range(3)], 1)[keep] / total[keep, None]
+    runs: list[tuple[int, int]] = []
+    stack = [(0, len(centres) - 1)]
+    while stack:
+        i, j = stack.pop()
+        if j - i < 2:
+            runs.append((i, j))
+            continue
+        chord = centres[j] - centres[i]
+        length = np.linalg.norm(chord)
+        rel = centres[i + 1 : j] - centres[i]
+        off = np.linalg.norm(rel - np.outer(rel @ chord / max(length**2, 1e-12), chord), axis=1)
+        k = int(np.argmax(off))
+        if off[k] <= BEND_TOLERANCE_MM:
+            runs.append((i, j))
+        else:
+            stack += [(i, i + 1 + k), (i + 1 + k, j)]
+    runs.sort(key=lambda r: -np.linalg.norm(centres[r[1]] - centres[r[0]]))
+    out = []
+    for i, j in runs:
+        d = centres[j] - centres[i]
+        if np.linalg.norm(d) >= MIN_LEG_LENGTH_MM:
+            out.append(d / np.linalg.norm(d))
+    return out
+
+
+def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights, bool]:
+    """Landmarks with the scan's axis as it is or reversed; (features, reversed?).
+
+    When both orientations give landmarks (possible once landmarks may lie at the scan's
+    edge), the one with fewer landmarks at the edge wins, then the one whose knee end is
+    thicker relative to the ankle (anatomy: D/B is 1.4-1.7, its inverse below 1).
+    """
+    found, failures = [], []
+    for flipped in (False, True):
+        h, g = (-heights[::-1], girth[::-1]) if flipped else (heights, girth)
+        try:
+            found.append((find_feature_heights(h, g), flipped))
+        except FitFailure as failure:
+            failures.append((failure, flipped))
+    if found:
+        return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
+    # report the failure of the more plausible orientation: knee end thicker
+    tenth = max(len(girth) // 10, 1)
+    with np.errstate(all="ignore"):
+        ends_up = bool(np.nanmean(girth[-tenth:]) >= np.nanmean(girth[:tenth]))
+    return _raise(failures[0][0] if ends_up else failures[1][0])
+
+
+def _raise(failure: FitFailure):
+    raise failure
+
+
+def _orient(points, faces, samples, weights, axis, basis, up):
+    """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
+    girths, sections, features, axis, basis."""
+    centre = points.mean(axis=0)
+    local = (points - centre) @ basis.T
+    heights, girth, sections = _profile(local, faces)
+    if up is not None:
+        feats = find_feature_heights(heights, girth)
+    else:
+        feats, flipped = _either_way(heights, girth)
+        if flipped:  # the scan's axis pointed towards the foot
+            axis = -axis
+            basis = cf.perpendicular_basis(axis, basis[1])
+            local = (points - centre) @ basis.T
+            heights, girth, sections = _mirror(heights, girth, sections)
+    return centre, local, heights, girth, sections, feats, axis, basis
+
+
+def _first_axis(samples, weights, shape_axes, up):
+    axis = shape_axes[2]
+    if up is not None and axis @ up < 0:
+        axis = -axis
+    centre = samples.mean(axis=0)
+    basis = cf.perpendicular_basis(axis, shape_axes[1])
+    # a flat foot drags the PCA axis; the line through the centroids of the compact
+    # (leg-like, not footprint-like) slabs of the surface does not
+    for _ in range(CENTROID_LINE_ITERATIONS):
+        line = _centroid_line_axis((samples - centre) @ basis.T, weights)
+        if line is None:
+            break
+        new_axis = basis.T @ line
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+    return axis, basis
+
+
+def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float) -> LegPlacement:
+    """Axis, B/C/D, refined calf axis, anterior direction: one candidate leg's placement.
+
+    Paper section 2.1: PCA of the whole leg gives a first axis (refined by the compact
+    slabs' centre line); B, C, D are found on the profile along it; then the axis is
+    re-estimated by PCA of the calf between B and D and the landmarks found again, at
+    most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
+    :data:`AXIS_TOLERANCE_DEG`.  When the first axis finds no calf, the straight runs of
+    the leg's centre line (a bent knee) are tried in turn.
+    """
+    samples, weights = _pca_samples(points, faces)
+    shape_axes = cf.principal_frame(samples, weights)
+    extents = np.ptp(samples @ shape_axes.T, axis=0)
+    if up is None and extents[2] < MIN_ASPECT * extents[:2].max():
+        raise FitFailure(
+            FailureReason.NOT_A_LEG,
+            f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
+            f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
+        )
+    axis, basis = _first_axis(samples, weights, shape_axes, up)
+    try:
+        centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, samples, weights, axis, basis, up)
+    except FitFailure as straight_failure:
+        for run in _shank_axes(samples, weights, axis):
+            run_basis = cf.perpendicular_basis(run, basis[1])
+            try:
+                centre, local, heights, girth, sections, feats, axis, basis = _orient(
+                    points, faces, samples, weights, run, run_basis, None)
+                break
+            except FitFailure:
+                continue
+        else:
+            raise straight_failure
+    for _ in range(MAX_AXIS_ITERATIONS):
+        sample_z = (samples - centre) @ basis[2]
+        calf = (sample_z >= feats.b_mm) & (sample_z <= feats.d_mm)
+        new_axis = cf.principal_axis(samples[calf], None if weights is None else weights[calf])
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+        if moved < REDETECT_DEG:
+            # a small tilt moves B and D by well under a millimetre: keep the landmarks
+            # (re-expressed about the same centre) and only adopt the calf's axis
+            axis = new_axis
+            basis = cf.perpendicular_basis(axis, basis[1])
+            local = (points - centre) @ basis.T
+            break
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        local = (points - centre) @ basis.T
+        window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
+        heights, girth, sections = _profile(local, faces, window)
+        feats = find_feature_heights(heights, girth, feats.c_mm)
+
+    # anterior: the foot when there is one, else opposite the calf bulge
+    calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid
+    if calf_rows.sum() < 10:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the calf's cross-sections could not be measured")
+    b_centre = sections.centroids_mm[calf_rows][0]
+    b_radius = float(sections.mean_radii()[calf_rows][0])
+    shifted = local - np.array([0.0, 0.0, feats.b_mm])
+    anterior = cf.anterior_from_foot(shifted, b_centre, b_radius)
+    cue = "foot"
+    if anterior is None:
+        anterior = cf.anterior_from_calf_bulge(sections.centroids_mm[calf_rows], heights[calf_rows], feats.c_mm)
+        cue = "calf_bulge"
+    if anterior is None:
+        anterior, cue = np.array([0.0, 1.0]), "undetermined"
+    hint = anterior[0] * basis[0] + anterior[1] * basis[1]
+    rotation = cf.perpendicular_basis(axis, hint)
+    origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
+    return LegPlacement(
+        rotation, origin, mm_per_unit, cue, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm,
+        feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge,
+    )
+
+
+def _candidates(clean: CleanScan) -> list[_Candidate]:
+    """Candidate legs: every cleaned piece, bodies and joined pairs of legs cut in two."""
+    out = []
+    for piece, index in enumerate(clean.pieces):
+        points = clean.points[index]
+        faces = cf.submesh(index, clean.faces, len(clean.points))
+        cuts = None
+        if _is_body(points):
+            cuts = cf.split_body_legs(points)
+        else:
+            cuts = cf.split_two_legs(points)
+        if cuts is None:
+            out.append(_Candidate(points, faces, None, piece, -1, len(points)))
+            continue
+        for half, cut in enumerate(cuts):
+            out.append(_Candidate(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)),
+                                  cut.up, piece, half, len(cut.point_index)))
+    return out
+
+
+def _is_body(points: np.ndarray) -> bool:
+    """A whole body: longer than :data:`app.geometry.calf_frame.BODY_MIN_LENGTH_MM` along
+    its main axis (PCA of a 20k-point subsample)."""
+    sample = points[:: max(len(points) // 20000, 1)]
+    return float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM
+
+
+def _sides_of(legs: list[tuple[_Candidate, LegPlacement]]) -> list[str]:
+    """Left / right of two or more legs of one person, from their shared anterior and up
+    directions (right = anterior x up), the legs compared along that direction."""
+    up = sum(p.rotation[2] for _, p in legs)
+    anterior = sum(p.rotation[1] for _, p in legs)
+    right = np.cross(anterior, up)
+    along = np.array([p.origin_mm @ right for _, p in legs])
+    sides = ["unknown"] * len(legs)
+    order = np.argsort(along)
+    sides[order[0]], sides[order[-1]] = "left", "right"
+    return sides
+
+
+def _describe(placement: LegPlacement, side: str, points: int) -> str:
+    return f"a {side} leg ({points} points, calf {placement.c_mm:.0f} mm above its ankle)"
+
+
+def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
+    """Find the leg of ``scan`` (see the module docstring); raises FitFailure."""
+    clean = clean_scan(scan.points_mm, scan.faces)
+    warnings = []
+    if clean.floor is not None:
+        warnings.append(f"a floor or platform plane was removed ({clean.floor.n_removed} points)")
+    if clean.n_spike_faces:
+        warnings.append(f"{clean.n_spike_faces} needle triangles (spikes) were removed")
+    legs: list[tuple[_Candidate, LegPlacement]] = []
+    failures: list[tuple[int, FitFailure]] = []
+    for candidate in _candidates(clean):
+        extent = np.ptp(candidate.points, axis=0).max() if len(candidate.points) else 0.0
+        if extent < MIN_LEG_LENGTH_MM and len(clean.pieces) > 1:
+            continue
+        try:
+            legs.append((candidate, _place_candidate(candidate.points, candidate.faces, candidate.up, scan.mm_per_unit)))
+        except FitFailure as failure:
+            failures.append((candidate.n_points, failure))
+    if not legs:
+        if failures:
+            raise max(failures, key=lambda f: f[0])[1]
+        raise FitFailure(FailureReason.NOT_A_LEG, "no part of the scan is long enough to be a lower leg")
+    ignored = len(clean.pieces) - len({c.piece for c, _ in legs})
+    if ignored > 0:
+        warnings.append(f"{ignored} detached piece(s) of the scan were ignored (no ankle, calf and knee in them)")
+    if len(legs) == 1:
+        candidate, placement = legs[0]
+        if side is not None:
+            found, source, confidence = side, "given", None
+        else:
+            guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
+            found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
+            if guess.side is None and guess.reason:
+                warnings.append(f"left or right could not be told: {guess.reason}")
+    else:
+        sides = _sides_of(legs)
+        if side is None or side not in sides:
+            listed = "; ".join(_describe(p, s, c.n_points) for (c, p), s in zip(legs, sides))
+            hint = "pass side=left or side=right" if side is None else f"no {side} leg could be told apart"
+            raise FitFailure(FailureReason.SEVERAL_LEGS, f"the scan holds {len(legs)} legs: {listed}; {hint}")
+        pick = sides.index(side)
+        candidate, placement = legs[pick]
+        found, source, confidence = side, "body", None
+    if placement.b_at_scan_edge:
+        warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge; "
+                        "include the heel in the next scan for a surer ankle")
+    if placement.d_at_scan_edge:
+        warnings.append("the scan ends at the knee waist D: D is taken at the scan's edge; "
+                        "scan 3-4 cm further above the knee for a surer D")
+    placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
+                                "side_confidence": confidence, "piece": candidate.piece,
+                                "half": candidate.half, "warnings": tuple(warnings)})
+    return PlacedLeg(candidate.points, candidate.faces, placement)
+
+
+def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
+    """The leg of a placement found earlier on the same scan, without searching again:
+    the (deterministic) clean-up is repeated and the same piece and leg are cut out."""
+    clean = clean_scan(scan.points_mm, scan.faces)
+    if placement.piece >= len(clean.pieces):
+        raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
+    index = clean.pieces[placement.piece]
+    points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
+    if placement.half >= 0:
+        cuts = cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points)
+        cut = cuts[placement.half]
+        points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
+    return PlacedLeg(points, faces, placement)

@@ -1,0 +1,204 @@
+"""The robustness corpus: seeded, deterministic synthetic scans with their truth.
+
+``corpus_specs(n, seed)`` draws ``n`` case specifications with the shares of
+:data:`KINDS`; ``build_case(spec)`` makes the scan file (bytes) and its truth.
+Nothing generated is committed: the same seed gives the same bytes.
+
+Every case is one leg of an ANSUR II subject (MakeHuman shape, see
+:mod:`benchmarks.corpus.makehuman`), moved by a random rigid motion, written in mm,
+cm or m, sometimes mirrored (a left leg then looks like a right one), with one
+degradation.  ``expect`` is ``"fit"`` when the ankle minimum B and the knee waist D lie
+in the scan, else the failure reason a correct service gives.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass, field
+
+import numpy as np
+import trimesh
+
+from benchmarks.corpus import degrade
+from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
+from benchmarks.corpus.truth import LegTruth, measure_truth
+
+#: degradation -> (share of the corpus, what a correct service answers)
+KINDS: dict[str, tuple[float, str]] = {
+    "mesh_clean": (0.03, "fit"),
+    "knee_high": (0.07, "fit"),             # foot to 15-45 mm above D (a knee-high stocking scan)
+    "knee_high_cloud": (0.04, "fit"),
+    "ankle_to_thigh": (0.05, "fit"),        # starts at or up to 10 mm below B
+    "ankle_to_thigh_cloud": (0.03, "fit"),
+    "midfoot_midthigh": (0.05, "fit"),
+    "holes": (0.06, "fit"),                 # 3-6 holes up to 40 mm across on the calf
+    "noise": (0.04, "fit"),                 # 0.3-1 mm normal noise on the vertices
+    "cloud": (0.05, "fit"),
+    "cloud_noise": (0.05, "fit"),           # up to 1 mm per coordinate
+    "cloud_outliers": (0.05, "fit"),        # 2% stray, floor and ghost points
+    "cloud_uneven": (0.05, "fit"),          # one side 4x sparser
+    "cloud_holes": (0.05, "fit"),
+    "floor": (0.04, "fit"),                 # floor grid or scanner platform under the foot
+    "floor_cloud": (0.04, "fit"),
+    "two_legs": (0.05, "fit"),              # feet to hips, side given
+    "two_legs_no_side": (0.03, "several_legs"),
+    "fragment": (0.04, "fit"),              # a piece of the other leg and spikes
+    "seated": (0.05, "fit"),                # knee bent 30-100 degrees, foot to hip
+    "plantar": (0.04, "fit"),               # foot pointed 20-45 degrees
+    "cut_above_ankle": (0.025, "no_ankle"),  # starts 40-80 mm above B
+    "cut_below_knee": (0.025, "no_knee"),    # ends 30-60 mm below D
+}
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    case_id: str
+    kind: str
+    seed: int
+    subject_index: int
+
+
+@dataclass
+class Case:
+    """A generated scan and what a correct fit of it gives.
+
+    data, file_type, units (the units option to pass, None to let the service detect),
+    side (the side option to pass); truth (generating coordinates) and ``to_scan``
+    (4x4, generating mm -> scan file units, including any mirror and scale);
+    ``true_side`` of the leg as scanned; ``foot_in_scan``.
+    """
+
+    spec: CaseSpec
+    data: bytes
+    file_type: str
+    units: str | None
+    side: str | None
+    expect: str
+    truth: LegTruth
+    to_scan: np.ndarray
+    true_side: str
+    foot_in_scan: bool
+    is_cloud: bool
+    notes: dict = field(default_factory=dict)
+
+
+def corpus_specs(n: int, seed: int = 7) -> list[CaseSpec]:
+    """``n`` specs, each kind getting round(share * n) (at least 1), subjects drawn
+    from all 6,068 ANSUR II rows."""
+    rng = np.random.default_rng(seed)
+    total = sum(share for share, _ in KINDS.values())
+    specs = []
+    n_subjects = len(ansur_subjects())
+    for kind, (share, _) in KINDS.items():
+        for i in range(max(1, round(share / total * n))):
+            specs.append(CaseSpec(f"{kind}-{i:02d}", kind, int(rng.integers(2**31)), int(rng.integers(n_subjects))))
+    return specs
+
+
+def _write(mesh: trimesh.Trimesh | None, cloud: np.ndarray | None, rng: np.random.Generator) -> tuple[bytes, str]:
+    if cloud is not None:
+        if rng.random() < 0.5:
+            return "\n".join(f"{x:.4f} {y:.4f} {z:.4f}" for x, y, z in cloud).encode(), "xyz"
+        return trimesh.PointCloud(cloud).export(file_type="ply"), "ply"
+    fmt = str(rng.choice(["stl", "stl", "ply", "obj"]))
+    data = mesh.export(file_type=fmt)
+    return (data.encode() if isinstance(data, str) else data), fmt
+
+
+def build_case(spec: CaseSpec) -> Case:
+    """Generate the scan of ``spec`` (deterministic in ``spec.seed``)."""
+    rng = np.random.default_rng(spec.seed)
+    kind = spec.kind
+    subject = ansur_subjects()[spec.subject_index]
+    knee_flexion = float(rng.uniform(30.0, 100.0)) if kind == "seated" else 0.0
+    plantar = float(rng.uniform(20.0, 45.0)) if kind == "plantar" else 0.0
+    legs = sized_legs(subject, rng, knee_flexion, plantar)
+    sign = float(rng.choice([1.0, -1.0]))  # +1 MakeHuman's left leg (x > 0)
+    prefix = "l" if sign > 0 else "r"
+    leg = leg_submesh(legs.vertices, legs.faces, sign)
+    ankle, knee = legs.joints[f"{prefix}-ankle"], legs.joints[f"{prefix}-knee"]
+    truth = measure_truth(leg, ankle, knee)
+    axis = truth.axis
+    b, d = truth.points_mm["B"], truth.points_mm["D"]
+    sole_y = float(leg.vertices[:, 1].min())
+    notes: dict = {"subject": int(subject["subjectid"]), "knee_flexion_deg": knee_flexion, "plantar_deg": plantar}
+    foot = True
+    mesh: trimesh.Trimesh = leg
+    if kind in ("knee_high", "knee_high_cloud", "cut_below_knee"):
+        reach = rng.uniform(15.0, 45.0) if kind != "cut_below_knee" else -rng.uniform(30.0, 60.0)
+        notes["top_above_D_mm"] = float(reach)
+        mesh = degrade.crop(mesh, d + reach * axis, -degrade.tilted(axis, 8.0, rng))
+    if kind in ("ankle_to_thigh", "ankle_to_thigh_cloud", "cut_above_ankle"):
+        start = -rng.uniform(0.0, 10.0) if kind != "cut_above_ankle" else rng.uniform(40.0, 80.0)
+        notes["bottom_above_B_mm"] = float(start)
+        mesh = degrade.crop(mesh, b + start * axis, degrade.tilted(axis, 8.0, rng))
+        foot = False
+    if kind == "midfoot_midthigh":
+        up = np.array([0.0, 1.0, 0.0])
+        mesh = degrade.crop(mesh, np.array([0.0, sole_y + rng.uniform(30.0, 50.0), 0.0]), up)
+        thigh_top = float(leg.vertices[:, 1].max())
+        mesh = degrade.crop(mesh, np.array([0.0, 0.5 * (thigh_top + knee[1]), 0.0]), -up)
+    if kind in ("holes", "cloud_holes"):
+        centres, radii = degrade.holes_on_calf(mesh, b, d, int(rng.integers(3, 7)), rng)
+        notes["holes_mm"] = (2 * radii).round(1).tolist()
+        if kind == "holes":
+            mesh = degrade.punch_holes(mesh, centres, radii)
+    if kind == "noise":
+        notes["noise_mm"] = float(rng.uniform(0.3, 1.0))
+        mesh = degrade.vertex_noise(mesh, notes["noise_mm"], rng)
+    if kind in ("two_legs", "two_legs_no_side"):
+        mesh = trimesh.Trimesh(legs.vertices, legs.faces, process=False)
+    if kind == "fragment":
+        other = leg_submesh(legs.vertices, legs.faces, -sign)
+        piece = degrade.crop(degrade.crop(other, b + 60.0 * axis, axis), d - 40.0 * axis, -axis)
+        mesh = trimesh.util.concatenate([degrade.spikes(mesh, 6, rng), piece])
+    if kind == "seated":  # the scan holds the whole bent leg, foot to hip
+        pass
+    if kind in ("floor", "floor_cloud"):
+        as_box = bool(rng.random() < 0.5)
+        notes["floor"] = "platform" if as_box else "floor"
+        ground = degrade.floor_plane(leg.vertices.mean(axis=0), sole_y - rng.uniform(0.0, 2.0), 700.0, rng, as_box)
+        if kind == "floor":
+            mesh = trimesh.util.concatenate([mesh, ground])
+
+    cloud = None
+    if kind.startswith("cloud") or kind.endswith("_cloud"):
+        area = mesh.area
+        cloud = degrade.sample_cloud(mesh, int(np.clip(area * rng.uniform(0.25, 0.5), 40_000, 120_000)), rng)
+        if kind == "cloud_noise":
+            notes["noise_mm"] = float(rng.uniform(0.3, 1.0))
+            cloud = degrade.cloud_noise(cloud, notes["noise_mm"], rng)
+        if kind == "cloud_outliers":
+            cloud = degrade.outliers(cloud, 0.02, sole_y, rng)
+            cloud = degrade.cloud_spikes(cloud, 5, rng)
+        if kind == "cloud_uneven":
+            cloud = degrade.uneven_density(cloud, axis, rng)
+        if kind == "cloud_holes":
+            cloud = degrade.cloud_holes(cloud, centres, radii)
+        if kind == "floor_cloud":
+            cloud = np.vstack([cloud, degrade.sample_cloud(ground, int(0.3 * len(cloud)), rng)])
+
+    # the scan's own coordinates: mirror, rigid motion, units
+    mirror = bool(rng.random() < 0.2)
+    motion = degrade.rigid_motion(rng)
+    if mirror:
+        motion = motion @ np.diag([-1.0, 1.0, 1.0, 1.0])
+    units = str(rng.choice(["mm", "mm", "mm", "m", "m", "cm"]))
+    scale = {"mm": 1.0, "cm": 0.1, "m": 0.001}[units]
+    to_scan = np.diag([scale, scale, scale, 1.0]) @ motion
+    if cloud is not None:
+        cloud = trimesh.transform_points(cloud, to_scan)
+    else:
+        mesh = mesh.copy()
+        mesh.apply_transform(to_scan)  # trimesh flips the winding of a mirrored mesh
+    data, file_type = _write(mesh, cloud, rng)
+    true_side = ("left" if sign > 0 else "right") if not mirror else ("right" if sign > 0 else "left")
+    expect = KINDS[kind][1]
+    side = None
+    if kind in ("two_legs",):
+        side = true_side
+    elif kind not in ("two_legs_no_side",) and rng.random() < 0.3:
+        side = true_side
+    notes.update(mirrored=mirror, units=units)
+    return Case(spec, data, file_type, units if units == "cm" else None, side, expect, truth, to_scan,
+                true_side, foot, cloud is not None, notes)

@@ -1,0 +1,126 @@
+"""Ground truth of a generated leg: tape girths and heights of B, B1, C, D.
+
+Measured on the clean mesh, independently of the fitting core (trimesh's plane
+sections and scipy's convex hull, not ``app.geometry``): planes perpendicular to the
+shank axis every 1 mm, the axis first from the ankle joint to the knee joint, then
+refined as the line through the section centroids between them (a tape is held
+perpendicular to the leg's long axis).  On the hull (tape) girth profile, lightly
+smoothed (Gaussian, sigma 3 mm): C is the largest girth in the middle 20-80% of the
+shank, B the smallest between the ankle joint and C, D the smallest between C and
+60 mm above the knee joint, B1 the steepest rise between B and C (paper section 2.2).
+Girths are read on the unsmoothed profile at those heights.  Units: mm.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from scipy.ndimage import gaussian_filter1d
+from scipy.spatial import ConvexHull, QhullError
+
+STEP_MM = 1.0
+SMOOTH_MM = 3.0
+KNEE_REACH_MM = 60.0
+
+
+@dataclass(frozen=True)
+class LegTruth:
+    """Truth of one leg, in the generating (MakeHuman, mm) coordinates.
+
+    heights_mm : name -> height along the shank axis above B (B is 0).
+    girths_mm : name -> tape girth (convex-hull perimeter) of the section, mm.
+    points_mm : name -> (3,) the section centroid at that landmark.
+    axis : (3,) unit shank axis, ankle -> knee.
+    """
+
+    heights_mm: dict
+    girths_mm: dict
+    points_mm: dict
+    axis: np.ndarray
+
+    def as_dict(self) -> dict:
+        return {"heights_mm": self.heights_mm, "girths_mm": self.girths_mm,
+                "points_mm": {k: v.tolist() for k, v in self.points_mm.items()}, "axis": self.axis.tolist()}
+
+
+def _hull_profile(mesh: trimesh.Trimesh, origin: np.ndarray, axis: np.ndarray, heights: np.ndarray):
+    """Tape girth (k,) and 3D centroid (k, 3) of the plane sections at ``heights``."""
+    lines, transforms, _ = trimesh.intersections.mesh_multiplane(mesh, origin, axis, heights)
+    girth = np.full(len(heights), np.nan)
+    centre = np.full((len(heights), 3), np.nan)
+    for k, (segments, to_world) in enumerate(zip(lines, transforms)):
+        if len(segments) < 3:
+            continue
+        pts = segments.reshape(-1, 2)
+        try:
+            hull = ConvexHull(pts)
+        except QhullError:
+            continue
+        ring = pts[hull.vertices]
+        girth[k] = np.linalg.norm(np.roll(ring, -1, axis=0) - ring, axis=1).sum()
+        length = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+        mid = segments.mean(axis=1)
+        c2 = (mid * length[:, None]).sum(axis=0) / max(length.sum(), 1e-12)
+        centre[k] = trimesh.transform_points(np.array([[c2[0], c2[1], 0.0]]), to_world)[0]
+    return girth, centre
+
+
+def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarray) -> LegTruth:
+    """Truth landmarks of the single clean leg ``mesh`` (mm); see the module docstring."""
+    axis = (knee_mm - ankle_mm) / np.linalg.norm(knee_mm - ankle_mm)
+    shank = float(np.linalg.norm(knee_mm - ankle_mm))
+    heights = np.arange(0.0, shank + KNEE_REACH_MM + STEP_MM / 2, STEP_MM)
+    origin = ankle_mm
+    for _ in range(2):
+        girth, centre = _hull_profile(mesh, origin, axis, heights)
+        inner = (heights > 0.1 * shank) & (heights < 0.9 * shank) & np.isfinite(girth)
+        pts = centre[inner]
+        mean = pts.mean(axis=0)
+        direction = np.linalg.svd(pts - mean)[2][0]
+        direction = direction if direction @ axis > 0 else -direction
+        # keep the ankle end: the new origin is where the old one projects on the new line
+        origin = mean + ((origin - mean) @ direction) * direction
+        axis = direction
+    girth, centre = _hull_profile(mesh, origin, axis, heights)
+    ok = np.isfinite(girth)
+    g = gaussian_filter1d(np.interp(heights, heights[ok], girth[ok]), SMOOTH_MM / STEP_MM, mode="nearest")
+    mid = (heights >= 0.2 * shank) & (heights <= 0.8 * shank)
+    ic = np.flatnonzero(mid)[np.argmax(g[mid])]
+    below = np.flatnonzero(heights < heights[ic])
+    ib = below[np.argmin(g[below])]
+    above = np.flatnonzero((heights > heights[ic]) & (heights <= shank + KNEE_REACH_MM))
+    id_ = above[np.argmin(g[above])]
+    slope = np.gradient(g, heights)
+    between = np.arange(ib + 1, ic)
+    ib1 = between[np.argmax(slope[between])] if between.size else (ib + ic) // 2
+    index = {"B": ib, "B1": ib1, "C": ic, "D": id_}
+    return LegTruth(
+        heights_mm={k: float(heights[i] - heights[ib]) for k, i in index.items()},
+        girths_mm={k: float(girth[i]) for k, i in index.items()},
+        points_mm={k: centre[i] for k, i in index.items()},
+        axis=axis,
+    )
+
+
+def quick_girths(vertices_dm: np.ndarray) -> tuple[float, float]:
+    """Tape girths at B and C (mm) of the left leg of an unsubdivided blend (for sizing)."""
+    from benchmarks.corpus.makehuman import DM, joints_mm, makehuman
+
+    z = makehuman()
+    skin = vertices_dm[: int(z["n_skin"])] * DM
+    faces = z["faces"].astype(np.int64)
+    keep = skin[:, 0] > 0
+    mesh = trimesh.Trimesh(skin, faces[keep[faces].all(axis=1)], process=False)
+    joints = joints_mm(vertices_dm)
+    ankle, knee = joints["l-ankle"], joints["l-knee"]
+    axis = (knee - ankle) / np.linalg.norm(knee - ankle)
+    shank = float(np.linalg.norm(knee - ankle))
+    heights = np.arange(0.0, shank, 3.0)
+    girth, _ = _hull_profile(mesh, ankle, axis, heights)
+    ok = np.isfinite(girth)
+    mid = ok & (heights > 0.2 * shank) & (heights < 0.8 * shank)
+    ic = np.flatnonzero(mid)[np.argmax(girth[mid])]
+    low = ok & (heights < heights[ic])
+    return float(girth[low].min()), float(girth[ic])
