@@ -8,16 +8,19 @@ Three steps, each a stated geometric rule (units mm; points (n, 3), faces (f, 3)
    (a) its inliers spread at least :data:`FLOOR_MIN_WIDTH_MM` across their narrower
    in-plane axis - wider than any foot (ANSUR II's widest foot is 126 mm) and no patch of
    skin is that flat - and (b) at least a quarter of them lie outside the footprint of
-   the rest of the scan projected on the plane: a floor reaches past what stands on it,
-   a flattened back or calf does not.  Everything within the tolerance of the plane or
-   beyond it (the platform's body) is removed.
+   what stands more than :data:`FLOOR_CLEARANCE_MM` above the plane, projected on it: a
+   floor reaches past what stands on it, a flattened back or calf does not.  Everything
+   within the tolerance of the plane or beyond it is removed, and the search repeats (a
+   platform shows its top and its bottom face), at most :data:`MAX_FLOORS` times.
 2. **Spikes** (meshes, :func:`spike_faces`): needle triangles whose longest edge is over
    :data:`SPIKE_EDGE_FACTOR` times the median edge and over 20 mm, and whose area is
    under 5% of that edge squared.  Scanner streaks in point clouds are left to the robust
    polar fit (:mod:`app.geometry.point_sections`).
-3. **Pieces** (:func:`scan_pieces`): points are joined when they share or touch a voxel
-   of :data:`VOXEL_FACTOR` times the median point spacing (at least 6 mm); pieces with
-   fewer than :data:`MIN_PIECE_FRACTION` of the points (stray points, dust) are dropped.
+3. **Pieces**: a mesh's pieces are its connected components (vertices joined by faces;
+   its vertex spacing varies too much for proximity); a point cloud's points are joined
+   when they share or touch a voxel of :data:`VOXEL_FACTOR` times the median point
+   spacing (at least 6 mm, :func:`voxel_pieces`).  Pieces with fewer than
+   :data:`MIN_PIECE_FRACTION` of the points (stray points, dust) are dropped.
    Which of the rest are legs is decided by the leg search (a detached fragment has no
    ankle and knee).
 """
@@ -34,6 +37,8 @@ from scipy.spatial import cKDTree
 FLOOR_TOLERANCE_MM = 3.0
 FLOOR_MIN_WIDTH_MM = 150.0
 FLOOR_OUTSIDE_FRACTION = 0.25
+FLOOR_CLEARANCE_MM = 60.0
+MAX_FLOORS = 3
 RANSAC_TRIALS = 256
 RANSAC_SAMPLE = 20_000
 SPIKE_EDGE_FACTOR = 10.0
@@ -91,11 +96,13 @@ def find_floor(points: np.ndarray) -> Floor | None:
     normal = vt[2]
     signed = (sample - centre) @ normal
     on_plane = np.abs(signed) < FLOOR_TOLERANCE_MM
-    rest = sample[~on_plane]
-    if len(rest) < 100:
+    if (~on_plane).sum() < 100:
         return None
     if np.median(signed[~on_plane]) < 0:
         normal, signed = -normal, -signed
+    rest = sample[signed > FLOOR_CLEARANCE_MM]
+    if len(rest) < 100:
+        return None
     in_plane = np.stack([vt[0], vt[1]])
     flat = (sample[on_plane] - centre) @ in_plane.T
     spread = np.percentile(flat, 97.5, axis=0) - np.percentile(flat, 2.5, axis=0)
@@ -155,9 +162,13 @@ def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
 def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
     """Floor, spikes and stray pieces removed; the remaining pieces listed (docstring)."""
     keep = np.ones(len(points), dtype=bool)
-    floor = find_floor(points)
-    if floor is not None:
-        keep &= (points - floor.point) @ floor.normal >= FLOOR_TOLERANCE_MM
+    floor = None
+    for _ in range(MAX_FLOORS):
+        plane = find_floor(points[keep])
+        if plane is None:
+            break
+        keep &= (points - plane.point) @ plane.normal >= FLOOR_TOLERANCE_MM
+        floor = plane if floor is None else Floor(floor.normal, floor.point, floor.n_removed + plane.n_removed)
     n_spikes = 0
     if faces is not None:
         spikes = spike_faces(points, faces)
@@ -168,8 +179,15 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
         keep &= used
     index = np.flatnonzero(keep)
     kept = points[index]
-    voxel = max(VOXEL_FACTOR * point_spacing(kept), MIN_VOXEL_MM)
-    labels = voxel_pieces(kept, voxel)
+    if faces is not None:
+        remap = np.full(len(points), -1, dtype=np.int64)
+        remap[index] = np.arange(len(index))
+        f = remap[faces]
+        edges = np.concatenate([f[:, [0, 1]], f[:, [1, 2]]])
+        graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])), shape=(len(index),) * 2)
+        labels = connected_components(graph, directed=False)[1]
+    else:
+        labels = voxel_pieces(kept, max(VOXEL_FACTOR * point_spacing(kept), MIN_VOXEL_MM))
     sizes = np.bincount(labels)
     big = np.flatnonzero(sizes >= MIN_PIECE_FRACTION * len(kept))
     big = big[np.argsort(-sizes[big])]

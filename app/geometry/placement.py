@@ -59,6 +59,9 @@ MAX_AXIS_ITERATIONS = 2
 #: an axis update smaller than this (degrees) keeps the landmarks without re-slicing: a
 #: 2 degree tilt moves a plane by +-1.7 mm across a 50 mm radius and its girth by 0.06%
 REDETECT_DEG = 2.0
+#: sections at the scan's ends seen over less than this share of their rays (meshes) or
+#: angular bins (clouds) are partial cuts, not leg sections
+MIN_END_COVERAGE = 0.9
 #: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
 COARSE_ANGLES = 36
 #: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
@@ -159,7 +162,15 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     if len(heights) < 20:
         raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
     sections = slice_polar(local, faces, heights, COARSE_ANGLES, recentre=False)
-    return heights, sections.circumferences(), sections
+    girth = sections.circumferences()
+    # a crop plane oblique to the slicing planes leaves partial sections at the scan's
+    # ends, whose girth falls towards zero: they are not measurements of the leg
+    complete = sections.coverage >= MIN_END_COVERAGE
+    if complete.any():
+        first, last = np.flatnonzero(complete)[[0, -1]]
+        girth[:first] = np.nan
+        girth[last + 1 :] = np.nan
+    return heights, girth, sections
 
 
 def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):

@@ -262,24 +262,27 @@ def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarra
     """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
     section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm.
 
-    Meshes: the hull of the exact plane-section segments.  Point clouds: the hull of the
-    robust polar fit of each slab on 360 rays.  NaN where there is no section.
+    The hull is taken of the robust polar fit of the section on 360 rays
+    (:mod:`app.geometry.point_sections`): of the slab of points for a cloud, of the exact
+    plane-section segment ends for a mesh - so scanner noise on the vertices, which the
+    hull of the raw section would pick up at its outermost points, is averaged out.
+    NaN where there is no section.
     """
     from scipy.spatial import ConvexHull, QhullError
+
+    from app.geometry.point_sections import slice_points_polar
 
     heights = np.asarray(heights, dtype=np.float64)
     out = np.full(len(heights), np.nan)
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
-        rings = [seg[plane == k].reshape(-1, 2) for k in range(len(heights))]
+        ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
+        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6)
     else:
-        from app.geometry.point_sections import slice_points_polar
-
         sections = slice_points_polar(points, heights, 360)
-        a = sections.angles_rad
-        contour = np.stack([sections.radii_mm * np.cos(a), sections.radii_mm * np.sin(a)], axis=-1)
-        rings = [c for c in contour]
-    for k, ring in enumerate(rings):  # a handful of landmark planes
+    a = sections.angles_rad
+    contour = np.stack([sections.radii_mm * np.cos(a), sections.radii_mm * np.sin(a)], axis=-1)
+    for k, ring in enumerate(contour):  # a handful of landmark planes
         if len(ring) < 3 or not np.isfinite(ring).all():
             continue
         try:
