@@ -178,12 +178,21 @@ def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
     sign = 1.0 if shares[0] >= shares[1] else -1.0
     height = (h - lo) if sign > 0 else (hi - h)
     shins = (height > 0.10 * length) & (height < 0.40 * length)
-    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(local[shins, :2][:: max(int(shins.sum()) // 20000, 1)])
+    shin_xy = local[shins, :2][:: max(int(shins.sum()) // 20000, 1)]
+    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(shin_xy)
     c0, c1 = km.cluster_centers_
     gap = np.linalg.norm(c1 - c0)
-    if gap < 60.0:
+    # two shins do not overlap: their centres lie at least the sum of their radii (RMS
+    # distance of each cluster from its centre) apart; the two halves of one shin's ring
+    # lie 4r/pi apart with RMS radii of ~0.77 r each, so they fail this
+    spread = [np.sqrt(((shin_xy[km.labels_ == i] - c) ** 2).sum(axis=1).mean()) for i, c in enumerate((c0, c1))]
+    if gap < 60.0 or gap < sum(spread):
         return None
     side_coord = (local[:, :2] - 0.5 * (c0 + c1)) @ ((c1 - c0) / gap)
+    # two legs are both (nearly) the length of the scan; a foot beside a shin is not
+    for half in (side_coord < 0, side_coord >= 0):
+        if np.ptp(h[half]) < 0.6 * length:
+            return None
     up = sign * basis[2]
     return LegCut(np.flatnonzero(side_coord < 0), up), LegCut(np.flatnonzero(side_coord >= 0), up)
 

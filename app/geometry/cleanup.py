@@ -10,11 +10,13 @@ Three steps, each a stated geometric rule (units mm; points (n, 3), faces (f, 3)
    skin is that flat - and (b) at least a quarter of them lie outside the footprint of
    what stands more than :data:`FLOOR_CLEARANCE_MM` above the plane, projected on it: a
    floor reaches past what stands on it, a flattened back or calf does not.  Everything
+   (c) its normal lies within 45 degrees of the long axis of the rest (a floor is across a
+   standing leg; the table under a lying body runs along it).  Everything
    within the tolerance of the plane or beyond it is removed, and the search repeats (a
    platform shows its top and its bottom face), at most :data:`MAX_FLOORS` times.
 2. **Spikes** (meshes, :func:`spike_faces`): needle triangles whose longest edge is over
    :data:`SPIKE_EDGE_FACTOR` times the median edge and over 20 mm, and whose area is
-   under 5% of that edge squared.  Scanner streaks in point clouds are left to the robust
+   under 5% of that edge squared, with a tip (a corner in at most two triangles).  Scanner streaks in point clouds are left to the robust
    polar fit (:mod:`app.geometry.point_sections`).
 3. **Pieces**: a mesh's pieces are its connected components (vertices joined by faces;
    its vertex spacing varies too much for proximity); a point cloud's points are joined
@@ -103,6 +105,12 @@ def find_floor(points: np.ndarray) -> Floor | None:
     rest = sample[signed > FLOOR_CLEARANCE_MM]
     if len(rest) < 100:
         return None
+    # (c) a floor is across what stands on it: its normal lies within 45 degrees of the
+    # long axis of the rest of the scan (a table under a lying body is along it)
+    centred = sample[~on_plane] - sample[~on_plane].mean(axis=0)
+    long_axis = np.linalg.eigh(centred.T @ centred)[1][:, -1]
+    if abs(long_axis @ normal) < np.cos(np.radians(45.0)):
+        return None
     in_plane = np.stack([vt[0], vt[1]])
     flat = (sample[on_plane] - centre) @ in_plane.T
     spread = np.percentile(flat, 97.5, axis=0) - np.percentile(flat, 2.5, axis=0)
@@ -124,7 +132,11 @@ def spike_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     longest = edges.max(axis=1)
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     limit = max(SPIKE_EDGE_FACTOR * float(np.median(edges)), 20.0)
-    return (longest > limit) & (area < 0.05 * longest**2)
+    needle = (longest > limit) & (area < 0.05 * longest**2)
+    # and it sticks out: one of its corners belongs to at most two triangles (a tip), not
+    # a sliver inside a closed surface
+    degree = np.bincount(faces.ravel(), minlength=len(points))
+    return needle & (degree[faces].min(axis=1) <= 2)
 
 
 def point_spacing(points: np.ndarray) -> float:

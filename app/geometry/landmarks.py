@@ -245,6 +245,13 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
     if peaks.size == 0 and shoulders.size == 0:
+        # no bulge inside the scan: when the girth is largest at one end, the scan stops
+        # inside the calf (the up end: the knee waist is missing; the down end: the ankle)
+        widest = heights[ok][np.argmax(g[ok])]
+        if top - widest <= INTERIOR_MARGIN_MM * 5:
+            raise _no_knee(top - bottom)
+        if widest - bottom <= INTERIOR_MARGIN_MM * 5:
+            raise _no_ankle(top - bottom)
         raise _no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
     failures: list[tuple[int, float, FitFailure]] = []
     for group in (peaks, shoulders):
@@ -264,6 +271,15 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 if other.girth_c_mm > best.girth_c_mm and dip >= 0.98 * best.girth_c_mm:
                     index, best = other_index, other
             return best
+    # the scan stops inside the calf: above its narrowest point the girth is largest at
+    # the top edge (the knee waist is missing); below it, at the bottom edge (the ankle)
+    # (only when no candidate found even an ankle: otherwise that candidate says more)
+    finite = np.flatnonzero(ok)
+    narrowest = finite[np.argmin(g[finite])]
+    up = finite[finite > narrowest]
+    got_ankle = any(stage >= 1 for stage, _, _ in failures)
+    if near_c_mm is None and not got_ankle and up.size and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM:
+        raise _no_knee(top - bottom)
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     raise max(failures, key=lambda item: (item[0], item[1]))[2]

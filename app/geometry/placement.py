@@ -62,6 +62,8 @@ REDETECT_DEG = 2.0
 #: sections at the scan's ends seen over less than this share of their rays (meshes) or
 #: angular bins (clouds) are partial cuts, not leg sections
 MIN_END_COVERAGE = 0.9
+#: an oblique crop (up to ~15 degrees across a 70 mm leg) spans this much of the axis, mm
+END_CUT_MM = 25.0
 #: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
 COARSE_ANGLES = 36
 #: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
@@ -165,11 +167,11 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     girth = sections.circumferences()
     # a crop plane oblique to the slicing planes leaves partial sections at the scan's
     # ends, whose girth falls towards zero: they are not measurements of the leg
-    complete = sections.coverage >= MIN_END_COVERAGE
-    if complete.any():
-        first, last = np.flatnonzero(complete)[[0, -1]]
-        girth[:first] = np.nan
-        girth[last + 1 :] = np.nan
+    # (only within END_CUT_MM of the ends: an oblique cut spans at most that much of the
+    # axis, while a foot's sections can be incomplete over a longer run and are real)
+    partial = (sections.coverage < MIN_END_COVERAGE) & (
+        (heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
+    girth[partial] = np.nan
     return heights, girth, sections
 
 
@@ -287,9 +289,9 @@ def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights,
     if found:
         return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
     # report the failure of the more plausible orientation: knee end thicker
-    tenth = max(len(girth) // 10, 1)
-    with np.errstate(all="ignore"):
-        ends_up = bool(np.nanmean(girth[-tenth:]) >= np.nanmean(girth[:tenth]))
+    measured = girth[np.isfinite(girth)]
+    tenth = max(len(measured) // 10, 1)
+    ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
     return _raise(failures[0][0] if ends_up else failures[1][0])
 
 
@@ -495,6 +497,11 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
             found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
             if guess.side is None and guess.reason:
                 warnings.append(f"left or right could not be told: {guess.reason}")
+    elif all(c.half < 0 for c, _ in legs) and _merged_placement(clean, scan) is not None:
+        # separate pieces that each look like a leg but are one leg broken into pieces
+        # by the mesher: the whole of them placed as one leg wins
+        candidate, placement = _merged_placement(clean, scan)
+        found, source, confidence = side, ("given" if side else None), None
     else:
         sides = _sides_of(legs)
         if side is None or side not in sides:
@@ -516,10 +523,21 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     return PlacedLeg(candidate.points, candidate.faces, placement)
 
 
+def _merged_placement(clean: CleanScan, scan: Scan):
+    """All cleaned pieces as one candidate, placed; None when that is not a leg."""
+    candidate = _Candidate(clean.points, clean.faces, None, -2, -1, len(clean.points))
+    try:
+        return candidate, _place_candidate(clean.points, clean.faces, None, scan.mm_per_unit)
+    except FitFailure:
+        return None
+
+
 def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     """The leg of a placement found earlier on the same scan, without searching again:
     the (deterministic) clean-up is repeated and the same piece and leg are cut out."""
     clean = clean_scan(scan.points_mm, scan.faces)
+    if placement.piece == -2:  # all pieces as one leg
+        return PlacedLeg(clean.points, clean.faces, placement)
     if placement.piece >= len(clean.pieces):
         raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
     index = clean.pieces[placement.piece]

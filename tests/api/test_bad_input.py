@@ -88,7 +88,7 @@ def test_bad_upload_is_a_specific_problem_and_changes_nothing(small_limit_client
 def test_the_reason_a_scan_cannot_be_fitted_is_spelled_out(small_limit_client):
     client, _ = small_limit_client
     problem = client.post("/api/v1/scans", **CASES["a scan cut above the ankle"][0]).json()
-    assert "no ankle minimum below the calf maximum in the scanned range" in problem["detail"]
+    assert "the ankle (B" in problem["detail"] and "Re-scan from below the ankle bones" in problem["detail"]
 
 
 @pytest.mark.parametrize("chunked", [False, True])

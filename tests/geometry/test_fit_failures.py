@@ -50,7 +50,7 @@ def test_a_scan_cut_above_the_ankle_has_no_ankle(leg):
     with pytest.raises(FitFailure) as info:
         _fit(cut)
     assert info.value.reason == FailureReason.NO_ANKLE
-    assert "no ankle minimum below the calf maximum" in info.value.detail
+    assert "the ankle (B" in info.value.detail and "Re-scan from below the ankle bones" in info.value.detail
 
 
 def test_a_scan_cut_below_the_knee_has_no_knee(leg):
