@@ -142,6 +142,36 @@ def _slab_blob_count(points_2d: np.ndarray, pixel_mm: float = 10.0) -> int:
 #: the feet end hold two blobs of comparable size (the smaller at least 30% of the larger)
 TWO_LEG_SLAB_SHARE = 0.7
 TWO_LEG_MIN_LENGTH_MM = 500.0
+SHIN_GAP_MM = 10.0
+
+
+def _shin_side_coordinate(local: np.ndarray, shins: np.ndarray, apart: bool) -> np.ndarray | None:
+    """Signed distance (n,) of every point from the mid-plane between the two shins.
+
+    The shin points (``shins`` mask over local (n, 3)) are split by 2-means; None when
+    their centres are under 60 mm apart or, with ``apart``, closer than the sum of their
+    radii (RMS distance from each centre) or with less than :data:`SHIN_GAP_MM` of air
+    between them: two shins do not overlap, while the two halves of one shin's ring lie
+    4r/pi apart with RMS radii of ~0.77 r each and touch.
+    """
+    shin_xy = local[shins, :2][:: max(int(shins.sum()) // 20000, 1)]
+    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(shin_xy)
+    c0, c1 = km.cluster_centers_
+    gap = np.linalg.norm(c1 - c0)
+    if gap < 60.0:
+        return None
+    if apart:
+        spread = [np.sqrt(((shin_xy[km.labels_ == i] - c) ** 2).sum(axis=1).mean()) for i, c in enumerate((c0, c1))]
+        if gap < sum(spread):
+            return None
+        # and a gap of air between them: the nearest points of the two shins are at least
+        # SHIN_GAP_MM apart (two halves of one ring touch at the split)
+        from scipy.spatial import cKDTree
+
+        nearest, _ = cKDTree(shin_xy[km.labels_ == 0]).query(shin_xy[km.labels_ == 1], k=1)
+        if nearest.min() < SHIN_GAP_MM:
+            return None
+    return (local[:, :2] - 0.5 * (c0 + c1)) @ ((c1 - c0) / gap)
 
 
 def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
@@ -163,6 +193,12 @@ def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
         return None
     order = np.argsort(h)
     hs = h[order]
+    # the occupancy pixel must bridge the gaps between the points of one ring, or a sparse
+    # mesh's shin falls apart into arcs: twice the 95th percentile of the point spacing
+    # (meshes are denser at the joints than along the shin)
+    from app.geometry.cleanup import point_spacing
+
+    pixel = max(10.0, 2.0 * point_spacing(points_mm, 95.0))
     shares = []
     for sign in (1.0, -1.0):
         pairs = 0
@@ -170,25 +206,16 @@ def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
         for f in fractions:
             level = lo + f * length if sign > 0 else hi - f * length
             a, b = np.searchsorted(hs, [level - 10.0, level + 10.0])
-            sizes = _slab_blob_sizes(local[order[a:b], :2])
+            sizes = _slab_blob_sizes(local[order[a:b], :2], pixel)
             pairs += int(sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0])
         shares.append(pairs / len(fractions))
     if max(shares) < TWO_LEG_SLAB_SHARE:
         return None
     sign = 1.0 if shares[0] >= shares[1] else -1.0
     height = (h - lo) if sign > 0 else (hi - h)
-    shins = (height > 0.10 * length) & (height < 0.40 * length)
-    shin_xy = local[shins, :2][:: max(int(shins.sum()) // 20000, 1)]
-    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(shin_xy)
-    c0, c1 = km.cluster_centers_
-    gap = np.linalg.norm(c1 - c0)
-    # two shins do not overlap: their centres lie at least the sum of their radii (RMS
-    # distance of each cluster from its centre) apart; the two halves of one shin's ring
-    # lie 4r/pi apart with RMS radii of ~0.77 r each, so they fail this
-    spread = [np.sqrt(((shin_xy[km.labels_ == i] - c) ** 2).sum(axis=1).mean()) for i, c in enumerate((c0, c1))]
-    if gap < 60.0 or gap < sum(spread):
+    side_coord = _shin_side_coordinate(local, (height > 0.10 * length) & (height < 0.40 * length), True)
+    if side_coord is None:
         return None
-    side_coord = (local[:, :2] - 0.5 * (c0 + c1)) @ ((c1 - c0) / gap)
     # two legs are both (nearly) the length of the scan; a foot beside a shin is not
     for half in (side_coord < 0, side_coord >= 0):
         if np.ptp(h[half]) < 0.6 * length:
@@ -232,14 +259,9 @@ def split_body_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut]:
         )
     height = (h - lo) if sign > 0 else (hi - h)
     leg_region = height < LEG_REGION_FRACTION * length
-    shins = (height > 0.08 * length) & (height < 0.25 * length)
-    km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(local[shins, :2])
-    c0, c1 = km.cluster_centers_
-    gap = np.linalg.norm(c1 - c0)
-    if gap < 60.0:
+    side_coord = _shin_side_coordinate(local, (height > 0.08 * length) & (height < 0.25 * length), False)
+    if side_coord is None:
         raise FitFailure(FailureReason.SIDE_NOT_FOUND, "the two legs of this body scan could not be separated")
-    direction = (c1 - c0) / gap
-    side_coord = (local[:, :2] - 0.5 * (c0 + c1)) @ direction
     up = sign * basis[2]
     return (
         LegCut(np.flatnonzero(leg_region & (side_coord < 0)), up),

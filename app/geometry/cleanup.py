@@ -139,11 +139,12 @@ def spike_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return needle & (degree[faces].min(axis=1) <= 2)
 
 
-def point_spacing(points: np.ndarray) -> float:
-    """Median nearest-neighbour distance of a 5k-point stride sample, mm."""
+def point_spacing(points: np.ndarray, percentile: float = 50.0) -> float:
+    """Nearest-neighbour distance (median, or another percentile) of a 5k-point stride
+    sample, mm."""
     sample = _stride_sample(points, 5000)
     distance, _ = cKDTree(points).query(sample, k=2)
-    return float(np.median(distance[:, 1]))
+    return float(np.percentile(distance[:, 1], percentile))
 
 
 def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
@@ -212,6 +213,9 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
     if faces is not None:
         mapped = remap[faces]
         new_faces = mapped[(mapped >= 0).all(axis=1)]
-    labels_final = labels[in_piece]
-    pieces = [np.flatnonzero(labels_final == b) for b in big]
+    # the points of each piece, largest first: one stable sort, split at the run ends
+    rank = np.empty(labels.max() + 1, dtype=np.int64)
+    rank[big] = np.arange(len(big))
+    order = np.argsort(rank[labels[in_piece]], kind="stable")
+    pieces = np.split(order, np.cumsum(sizes[big])[:-1])
     return CleanScan(points[final], new_faces, pieces, floor, n_spikes, int((~in_piece).sum()))

@@ -292,14 +292,10 @@ def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights,
     measured = girth[np.isfinite(girth)]
     tenth = max(len(measured) // 10, 1)
     ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
-    return _raise(failures[0][0] if ends_up else failures[1][0])
+    raise failures[0][0] if ends_up else failures[1][0]
 
 
-def _raise(failure: FitFailure):
-    raise failure
-
-
-def _orient(points, faces, samples, weights, axis, basis, up):
+def _orient(points, faces, axis, basis, up):
     """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
     girths, sections, features, axis, basis."""
     centre = points.mean(axis=0)
@@ -361,13 +357,12 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
         )
     axis, basis = _first_axis(samples, weights, shape_axes, up)
     try:
-        centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, samples, weights, axis, basis, up)
+        centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, axis, basis, up)
     except FitFailure as straight_failure:
         for run in _shank_axes(samples, weights, axis):
             run_basis = cf.perpendicular_basis(run, basis[1])
             try:
-                centre, local, heights, girth, sections, feats, axis, basis = _orient(
-                    points, faces, samples, weights, run, run_basis, None)
+                centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, run, run_basis, None)
                 break
             except FitFailure:
                 continue
@@ -425,11 +420,7 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
     for piece, index in enumerate(clean.pieces):
         points = clean.points[index]
         faces = cf.submesh(index, clean.faces, len(clean.points))
-        cuts = None
-        if _is_body(points):
-            cuts = cf.split_body_legs(points)
-        else:
-            cuts = cf.split_two_legs(points)
+        cuts = _split(points)
         if cuts is None:
             out.append(_Candidate(points, faces, None, piece, -1, len(points)))
             continue
@@ -437,6 +428,11 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
             out.append(_Candidate(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)),
                                   cut.up, piece, half, len(cut.point_index)))
     return out
+
+
+def _split(points: np.ndarray):
+    """The legs of a whole body or of two legs joined at the hips; None for one leg."""
+    return cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points)
 
 
 def _is_body(points: np.ndarray) -> bool:
@@ -497,11 +493,6 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
             found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
             if guess.side is None and guess.reason:
                 warnings.append(f"left or right could not be told: {guess.reason}")
-    elif all(c.half < 0 for c, _ in legs) and _merged_placement(clean, scan) is not None:
-        # separate pieces that each look like a leg but are one leg broken into pieces
-        # by the mesher: the whole of them placed as one leg wins
-        candidate, placement = _merged_placement(clean, scan)
-        found, source, confidence = side, ("given" if side else None), None
     else:
         sides = _sides_of(legs)
         if side is None or side not in sides:
@@ -523,27 +514,15 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     return PlacedLeg(candidate.points, candidate.faces, placement)
 
 
-def _merged_placement(clean: CleanScan, scan: Scan):
-    """All cleaned pieces as one candidate, placed; None when that is not a leg."""
-    candidate = _Candidate(clean.points, clean.faces, None, -2, -1, len(clean.points))
-    try:
-        return candidate, _place_candidate(clean.points, clean.faces, None, scan.mm_per_unit)
-    except FitFailure:
-        return None
-
-
 def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     """The leg of a placement found earlier on the same scan, without searching again:
     the (deterministic) clean-up is repeated and the same piece and leg are cut out."""
     clean = clean_scan(scan.points_mm, scan.faces)
-    if placement.piece == -2:  # all pieces as one leg
-        return PlacedLeg(clean.points, clean.faces, placement)
     if placement.piece >= len(clean.pieces):
         raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
     index = clean.pieces[placement.piece]
     points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
     if placement.half >= 0:
-        cuts = cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points)
-        cut = cuts[placement.half]
+        cut = _split(points)[placement.half]
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
     return PlacedLeg(points, faces, placement)
