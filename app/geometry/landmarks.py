@@ -50,6 +50,17 @@ C_HINT_MM = 40.0
 #: when the girth is still falling towards a minimum further out
 EDGE_FIT_MM = 40.0
 EDGE_REACH_MM = 15.0
+#: the ankle B is the narrowest section of the leg above the foot (anthropometry: the
+#: minimum leg girth, ISO 8559-1 5.3.23); a candidate B with a leg section more than
+#: this fraction narrower below it is a knee waist (the scan starts above the ankle,
+#: and the bulge above the candidate is the thigh).  3% is three times the girth noise
+#: of a section (~1%), so a flat ankle region never trips it.
+NARROWER_BELOW = 0.03
+#: ... looking down from B until the girth reaches FOOT_RATIO x B: below a real ankle the
+#: heel and instep come first (heel-ankle girth ~1.4-1.6 x the ankle minimum), and the
+#: small sections of a sole or toes under them are not leg; below a knee waist lies
+#: only the calf, at most ~1.25 x the knee waist
+FOOT_RATIO = 1.3
 
 LANDMARK_NAMES = ("B", "B1", "C", "D")
 
@@ -157,6 +168,18 @@ def _check_candidate(heights, g, raw, ok, local_min, ic, bottom, top, spacing) -
         if heights[below][0] - bottom > 2 * spacing or not _minimum_reached_at_edge(heights, raw, bottom, +1):
             return _no_ankle(zc - bottom)
         ib, b_edge = np.flatnonzero(below)[np.argmin(g[below])], True
+    # walk down from B until the girth passes the foot's (a knee waist has only the calf
+    # below it, a real ankle the heel and instep)
+    down = np.flatnonzero(ok & (heights < heights[ib] - INTERIOR_MARGIN_MM))[::-1]
+    foot = np.flatnonzero(g[down] >= FOOT_RATIO * g[ib])
+    lower = down[: foot[0]] if foot.size else down
+    if lower.size and g[lower].min() < (1.0 - NARROWER_BELOW) * g[ib]:
+        # the ankle is the narrowest part of the leg above the foot: with a narrower leg
+        # below this "ankle", it is a knee waist and the bulge above it a thigh
+        return _no_calf(
+            f"the minimum below the bulge at {g[ic]:.0f} mm girth ({g[ib]:.0f} mm) is not the ankle: "
+            f"the leg below it is narrower ({g[lower].min():.0f} mm)"
+        )
     if g[ic] < MIN_CALF_RATIO * g[ib]:
         return _no_calf(
             f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
@@ -259,7 +282,10 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         for ic in group:
             outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
             if isinstance(outcome, FitFailure):
-                failures.append((_FAILURE_STAGE[outcome.reason], float(g[ic]), outcome))
+                # among ankles missing, the lowest bulge (the calf is the first bulge above
+                # the ankle); otherwise the largest
+                rank = -float(heights[ic]) if outcome.reason is FailureReason.NO_ANKLE else float(g[ic])
+                failures.append((FAILURE_STAGE[outcome.reason], rank, outcome))
             else:
                 valid.append((int(ic), outcome))
         if valid:
@@ -278,7 +304,12 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     narrowest = finite[np.argmin(g[finite])]
     up = finite[finite > narrowest]
     got_ankle = any(stage >= 1 for stage, _, _ in failures)
-    if near_c_mm is None and not got_ankle and up.size and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM:
+    # (only when the girth rises without a bulge from the narrowest point to the top: a
+    # scan holding a calf, a knee and a thigh above its narrowest point does not stop
+    # inside the calf)
+    dips = find_peaks(-g, prominence=1.0)[0]
+    rising = up.size and not np.isin(up, dips).any()
+    if near_c_mm is None and not got_ankle and rising and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM:
         raise _no_knee(top - bottom)
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
@@ -286,7 +317,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
 
 
 #: how far a candidate got before it failed (higher is more informative)
-_FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
+FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
 
 
 def _no_ankle(span_mm: float) -> FitFailure:

@@ -13,8 +13,9 @@ Steps (mm throughout):
    its legs;
 3. each candidate is placed (:func:`_place_candidate`): area-weighted PCA axis, then the
    line through the centroids of the compact slabs (a flat foot does not drag it); for a
-   bent knee, the straight runs of the leg's centre line (:func:`_shank_axes`) are
-   tried too, so the axis is the shank's, not the body's; the circumference profile
+   bent knee, the straight runs of the leg's centre line are tried too, each cut free
+   of the thigh at the knee (:mod:`app.geometry.knee_bend`), so the axis and the
+   sections are the shank's, not the body's; the circumference profile
    gives B, C, D (:func:`app.geometry.landmarks.find_feature_heights`), both ends tried
    when the scan's up is unknown; the calf's own PCA axis (B to D) is adopted;
    anterior from the foot, else opposite the calf bulge; origin at the B centroid;
@@ -32,7 +33,8 @@ import numpy as np
 from app.geometry import calf_frame as cf
 from app.geometry.cleanup import CleanScan, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.landmarks import FeatureHeights, find_feature_heights
+from app.geometry.knee_bend import keep_index, shank_runs
+from app.geometry.landmarks import FAILURE_STAGE, FeatureHeights, find_feature_heights
 from app.geometry.scan_io import Scan
 from app.geometry.sections import PolarSections, slice_polar
 from app.geometry.side import infer_side
@@ -68,9 +70,6 @@ END_CUT_MM = 25.0
 COARSE_ANGLES = 36
 #: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
 PROFILE_MARGIN_MM = 70.0
-#: centre-line runs for bent legs: bins along the leg, and the straightness tolerance
-CENTRE_LINE_BIN_MM = 15.0
-BEND_TOLERANCE_MM = 25.0
 
 
 @dataclass(frozen=True)
@@ -99,6 +98,8 @@ class LegPlacement:
     piece: int = 0
     half: int = -1
     warnings: tuple = ()
+    #: a bent knee's cut: ((point (3,), normal (3,)), ...) in scan mm, keep (p - point) . normal <= 0
+    half_spaces: tuple = ()
 
     @property
     def frame(self) -> cf.CalfFrame:
@@ -112,6 +113,7 @@ class LegPlacement:
             "b_at_scan_edge": self.b_at_scan_edge, "d_at_scan_edge": self.d_at_scan_edge,
             "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
             "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
+            "half_spaces": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.half_spaces],
         }
 
     @classmethod
@@ -124,6 +126,8 @@ class LegPlacement:
             b_at_scan_edge=bool(data.get("b_at_scan_edge", False)), d_at_scan_edge=bool(data.get("d_at_scan_edge", False)),
             side=data.get("side"), side_source=data.get("side_source"), side_confidence=data.get("side_confidence"),
             piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
+            half_spaces=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float))
+                              for p, n in data.get("half_spaces", ())),
         )
 
 
@@ -147,11 +151,14 @@ class _Candidate:
     n_points: int = field(default=0)
 
 
-def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None):
+def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None,
+             cut_end: int = 0):
     """Coarse circumference profile along z (36 rays), for finding B, C, D.
 
     The whole leg every :data:`FIRST_SPACING_MM`; a window ``z_range`` every
-    :data:`COARSE_SPACING_MM`.  Returns heights (k,), girths (k,), the sections.
+    :data:`COARSE_SPACING_MM`.  ``cut_end`` +1 (-1): the leg was cut free of a bent
+    knee's thigh at its top (bottom) end; the partial sections next to that cut are not
+    measurements, however far they reach.  Returns heights (k,), girths (k,), the sections.
     """
     z = local[:, 2]
     if z_range is None:
@@ -171,6 +178,10 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     # axis, while a foot's sections can be incomplete over a longer run and are real)
     partial = (sections.coverage < MIN_END_COVERAGE) & (
         (heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
+    if cut_end:
+        inwards = np.arange(len(heights))[::-cut_end]  # from the cut end into the leg
+        whole = sections.coverage[inwards] >= MIN_END_COVERAGE
+        partial[inwards[: int(np.argmax(whole)) if whole.any() else len(inwards)]] = True
     girth[partial] = np.nan
     return heights, girth, sections
 
@@ -232,46 +243,6 @@ def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -
     return direction if direction[2] > 0 else -direction
 
 
-def _shank_axes(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> list[np.ndarray]:
-    """Directions (3,) of the straight runs of a bent leg's centre line, longest first.
-
-    The centre line is followed by the centroids of :data:`CENTRE_LINE_BIN_MM` bins along
-    the main axis, then split where it bends (Douglas-Peucker: a run is straight when no
-    centroid lies more than :data:`BEND_TOLERANCE_MM` off its chord).  A knee bent by up
-    to 100 degrees gives two runs, shank and thigh; both are returned, and the landmark
-    search decides which one has an ankle, a calf and a knee waist.
-    """
-    w = np.ones(len(samples)) if weights is None else weights
-    z = samples @ axis
-    slab = np.floor((z - z.min()) / CENTRE_LINE_BIN_MM).astype(np.int64)
-    total = np.bincount(slab, weights=w)
-    keep = total > 0.2 * np.median(total[total > 0])
-    centres = np.stack([np.bincount(slab, weights=w * samples[:, i]) for i in range(3)], 1)[keep] / total[keep, None]
-    runs: list[tuple[int, int]] = []
-    stack = [(0, len(centres) - 1)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < 2:
-            runs.append((i, j))
-            continue
-        chord = centres[j] - centres[i]
-        length = np.linalg.norm(chord)
-        rel = centres[i + 1 : j] - centres[i]
-        off = np.linalg.norm(rel - np.outer(rel @ chord / max(length**2, 1e-12), chord), axis=1)
-        k = int(np.argmax(off))
-        if off[k] <= BEND_TOLERANCE_MM:
-            runs.append((i, j))
-        else:
-            stack += [(i, i + 1 + k), (i + 1 + k, j)]
-    runs.sort(key=lambda r: -np.linalg.norm(centres[r[1]] - centres[r[0]]))
-    out = []
-    for i, j in runs:
-        d = centres[j] - centres[i]
-        if np.linalg.norm(d) >= MIN_LEG_LENGTH_MM:
-            out.append(d / np.linalg.norm(d))
-    return out
-
-
 def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights, bool]:
     """Landmarks with the scan's axis as it is or reversed; (features, reversed?).
 
@@ -295,12 +266,13 @@ def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights,
     raise failures[0][0] if ends_up else failures[1][0]
 
 
-def _orient(points, faces, axis, basis, up):
+def _orient(points, faces, axis, basis, up, knee=None):
     """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
-    girths, sections, features, axis, basis."""
+    girths, sections, features, axis, basis.  ``knee`` (3,): where a bent leg was cut."""
     centre = points.mean(axis=0)
     local = (points - centre) @ basis.T
-    heights, girth, sections = _profile(local, faces)
+    cut_end = 0 if knee is None else (1 if (knee - centre) @ axis > 0 else -1)
+    heights, girth, sections = _profile(local, faces, cut_end=cut_end)
     if up is not None:
         feats = find_feature_heights(heights, girth)
     else:
@@ -356,18 +328,32 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
             f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
         )
     axis, basis = _first_axis(samples, weights, shape_axes, up)
+    half_spaces: tuple = ()
+    knee_point = None
     try:
         centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, axis, basis, up)
     except FitFailure as straight_failure:
-        for run in _shank_axes(samples, weights, axis):
-            run_basis = cf.perpendicular_basis(run, basis[1])
+        run_failures = [straight_failure]
+        for run in shank_runs(samples, weights, axis):
+            run_basis = cf.perpendicular_basis(run.direction, basis[1])
+            run_points, run_faces = _clip(points, faces, run.half_spaces)
             try:
-                centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, run, run_basis, None)
-                break
-            except FitFailure:
+                knee = run.half_spaces[0][0] if run.half_spaces else None
+                oriented = _orient(run_points, run_faces, run.direction, run_basis, None, knee)
+            except FitFailure as failure:
+                run_failures.append(failure)
                 continue
+            centre, local, heights, girth, sections, feats, axis, basis = oriented
+            points, faces, half_spaces, knee_point = run_points, run_faces, run.half_spaces, knee
+            kept = keep_index(samples, half_spaces)
+            samples, weights = samples[kept], None if weights is None else weights[kept]
+            break
         else:
-            raise straight_failure
+            # the straight axis's failure, unless it found no calf at all: then the run
+            # that got furthest (a bent leg's shank read along its own axis says more)
+            if FAILURE_STAGE.get(straight_failure.reason, 0) > 0:
+                raise straight_failure
+            raise max(run_failures, key=lambda f: FAILURE_STAGE.get(f.reason, 0))
     for _ in range(MAX_AXIS_ITERATIONS):
         sample_z = (samples - centre) @ basis[2]
         calf = (sample_z >= feats.b_mm) & (sample_z <= feats.d_mm)
@@ -388,7 +374,8 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
         basis = cf.perpendicular_basis(axis, basis[1])
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
-        heights, girth, sections = _profile(local, faces, window)
+        cut_end = 0 if knee_point is None else (1 if (knee_point - centre) @ axis > 0 else -1)
+        heights, girth, sections = _profile(local, faces, window, cut_end)
         feats = find_feature_heights(heights, girth, feats.c_mm)
 
     # anterior: the foot when there is one, else opposite the calf bulge
@@ -410,8 +397,16 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
     origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
     return LegPlacement(
         rotation, origin, mm_per_unit, cue, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm,
-        feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge,
+        feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces=half_spaces,
     )
+
+
+def _clip(points: np.ndarray, faces: np.ndarray | None, half_spaces) -> tuple[np.ndarray, np.ndarray | None]:
+    """The points (n, 3) and faces inside ``half_spaces`` (all of them when empty)."""
+    if not half_spaces:
+        return points, faces
+    index = keep_index(points, half_spaces)
+    return points[index], cf.submesh(index, faces, len(points))
 
 
 def _candidates(clean: CleanScan) -> list[_Candidate]:
@@ -502,6 +497,9 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         pick = sides.index(side)
         candidate, placement = legs[pick]
         found, source, confidence = side, "body", None
+    if placement.half_spaces:
+        warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
+                        "the knee angle, and measured only where that cut leaves its sections whole")
     if placement.b_at_scan_edge:
         warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge; "
                         "include the heel in the next scan for a surer ankle")
@@ -511,7 +509,7 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
                                 "side_confidence": confidence, "piece": candidate.piece,
                                 "half": candidate.half, "warnings": tuple(warnings)})
-    return PlacedLeg(candidate.points, candidate.faces, placement)
+    return PlacedLeg(*_clip(candidate.points, candidate.faces, placement.half_spaces), placement)
 
 
 def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
@@ -525,4 +523,4 @@ def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     if placement.half >= 0:
         cut = _split(points)[placement.half]
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
-    return PlacedLeg(points, faces, placement)
+    return PlacedLeg(*_clip(points, faces, placement.half_spaces), placement)

@@ -194,6 +194,11 @@ def build_case(spec: CaseSpec) -> Case:
     data, file_type = _write(mesh, cloud, rng)
     true_side = ("left" if sign > 0 else "right") if not mirror else ("right" if sign > 0 else "left")
     expect = KINDS[kind][1]
+    if kind == "seated" and truth.knee_hidden:
+        # at this flexion the thigh covers the knee waist: no tape can be laid there, and
+        # the right answer is the refusal that says so
+        expect = "no_knee"
+    notes["knee_hidden"] = truth.knee_hidden
     side = None
     if kind in ("two_legs",):
         side = true_side

@@ -8,6 +8,8 @@ perpendicular to the leg's long axis).  On the hull (tape) girth profile, lightl
 smoothed (Gaussian, sigma 3 mm): C is the largest girth in the middle 20-80% of the
 shank, B the smallest between the ankle joint and C, D the smallest between C and
 60 mm above the knee joint, B1 the steepest rise between B and C (paper section 2.2).
+A bent knee brings the thigh into the upper planes: the shank's sections end where
+the girth jumps (:data:`MERGE_RISE`), and C and D are looked for below that.
 Girths are read on the unsmoothed profile at those heights.  Units: mm.
 """
 
@@ -23,6 +25,10 @@ from scipy.spatial import ConvexHull, QhullError
 STEP_MM = 1.0
 SMOOTH_MM = 3.0
 KNEE_REACH_MM = 60.0
+#: a leg's girth rises at most ~1%/mm anywhere above the ankle (knee: ~0.5%/mm); a
+#: rise of 10% within 5 mm means the plane has reached another body part (the thigh)
+MERGE_RISE = 0.10
+MERGE_RUN_MM = 5.0
 
 
 @dataclass(frozen=True)
@@ -33,12 +39,15 @@ class LegTruth:
     girths_mm : name -> tape girth (convex-hull perimeter) of the section, mm.
     points_mm : name -> (3,) the section centroid at that landmark.
     axis : (3,) unit shank axis, ankle -> knee.
+    knee_hidden : a bent knee's thigh reaches into the planes before the girth has
+        its minimum above the calf: the knee waist cannot be measured on this leg.
     """
 
     heights_mm: dict
     girths_mm: dict
     points_mm: dict
     axis: np.ndarray
+    knee_hidden: bool = False
 
     def as_dict(self) -> dict:
         return {"heights_mm": self.heights_mm, "girths_mm": self.girths_mm,
@@ -86,12 +95,24 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
     girth, centre = _hull_profile(mesh, origin, axis, heights)
     ok = np.isfinite(girth)
     g = gaussian_filter1d(np.interp(heights, heights[ok], girth[ok]), SMOOTH_MM / STEP_MM, mode="nearest")
-    mid = (heights >= 0.2 * shank) & (heights <= 0.8 * shank)
+    # a bent knee: near the knee the planes reach the thigh, and the section's girth
+    # jumps; the shank's own sections end where the girth first rises by more than
+    # MERGE_RISE within MERGE_RUN_MM in the upper half of the shank
+    run = int(MERGE_RUN_MM / STEP_MM)
+    rise = np.zeros(len(g), dtype=bool)
+    rise[:-run] = (g[run:] > (1.0 + MERGE_RISE) * g[:-run]) & (heights[:-run] > 0.5 * shank)
+    end = heights[np.argmax(rise)] if rise.any() else shank + KNEE_REACH_MM
+    mid = (heights >= 0.2 * shank) & (heights <= min(0.8 * shank, end))
     ic = np.flatnonzero(mid)[np.argmax(g[mid])]
     below = np.flatnonzero(heights < heights[ic])
     ib = below[np.argmin(g[below])]
-    above = np.flatnonzero((heights > heights[ic]) & (heights <= shank + KNEE_REACH_MM))
-    id_ = above[np.argmin(g[above])]
+    above = np.flatnonzero((heights > heights[ic]) & (heights <= min(shank + KNEE_REACH_MM, end)))
+    id_ = above[np.argmin(g[above])] if above.size else ic
+    # the knee waist is hidden when the girth is still falling where the thigh merges
+    # (still falling: more than 2% over the last 10 mm, twice the girth noise)
+    edge = int(np.searchsorted(heights, end))
+    falling = edge >= 10 and g[edge - 10] > 1.02 * g[edge - 1]
+    knee_hidden = bool(end - heights[id_] <= MERGE_RUN_MM and falling) or bool(end - heights[ic] <= MERGE_RUN_MM)
     slope = np.gradient(g, heights)
     between = np.arange(ib + 1, ic)
     ib1 = between[np.argmax(slope[between])] if between.size else (ib + ic) // 2
@@ -101,6 +122,7 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
         girths_mm={k: float(girth[i]) for k, i in index.items()},
         points_mm={k: centre[i] for k, i in index.items()},
         axis=axis,
+        knee_hidden=knee_hidden,
     )
 
 

@@ -15,7 +15,8 @@ from benchmarks.corpus.evaluate import run_case
 #: one or two cases of the kinds a clinic sends most (seeded: always the same scans)
 SUBSET = ["mesh_clean-00", "knee_high-00", "knee_high_cloud-00", "ankle_to_thigh-00", "holes-00",
           "cloud-00", "cloud_noise-00", "cloud_outliers-00", "cloud_uneven-00", "cloud_holes-00",
-          "floor_cloud-00", "two_legs-00", "two_legs_no_side-00", "fragment-00", "cut_below_knee-00"]
+          "floor_cloud-00", "two_legs-00", "two_legs_no_side-00", "fragment-00", "cut_below_knee-00",
+          "cut_above_ankle-00", "cut_above_ankle-01"]
 SPECS = {s.case_id: s for s in corpus_specs(60)}
 
 
@@ -41,3 +42,14 @@ def test_several_legs_are_listed_in_the_failure():
 def test_the_generator_is_deterministic():
     a, b = build_case(SPECS["cloud-00"]), build_case(SPECS["cloud-00"])
     assert a.data == b.data and a.truth.girths_mm == b.truth.girths_mm
+
+
+@pytest.mark.parametrize("case_id", ["seated-00", "seated-02"])
+def test_a_seated_leg_is_measured_along_its_shank(case_id):
+    """Knees bent 56 and 32 degrees (specs of the 220-case corpus), foot to hip."""
+    case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
+    assert case.expect == "fit"
+    result = run_case(case)
+    assert result["outcome"] == "fit", result.get("detail")
+    for name in ("B", "C"):
+        assert abs(result["girth_error_mm"][name]) <= 2.0, (name, result["girth_error_mm"])
