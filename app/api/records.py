@@ -62,7 +62,7 @@ def get_record(record_id: str, session: Session = Depends(get_session)):
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
                         **problems(s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
-def import_record(data: dict = Body(..., description="a calf record (schema_version 1, see CalfRecordBody)"),
+def import_record(data: dict = Body(..., description="a calf record (schema_version 1 or 2, see CalfRecordBody)"),
                   session: Session = Depends(get_session)):
     service = RecordService(session)
     record = service.import_record(data)

@@ -63,8 +63,10 @@ UPLOAD_BODY = {
             s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB",
             s415="unsupported_media_type / unsupported_format",
             s422="the scan cannot be fitted, with the reason: unreadable_file, truncated_file, empty_scan, "
-            "non_finite_coordinates, too_few_points, implausible_size, not_a_leg, no_ankle, no_knee, "
-            "side_not_found, invalid_option",
+            "non_finite_coordinates, too_few_points, implausible_size, not_a_leg, no_calf (no calf bulge), "
+            "no_ankle / no_knee (the ankle or the knee waist is not in the scan: the detail says how far the "
+            "scan reaches and what a re-scan must include), several_legs (the detail lists the legs found; "
+            "pass side), side_not_found, invalid_option",
             s503="the upload check timed out",
         ),
     },

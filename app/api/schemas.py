@@ -9,7 +9,20 @@ from pydantic import BaseModel, ConfigDict, Field
 
 class Landmark(BaseModel):
     height_mm: float = Field(description="calf-frame z; B is 0")
-    circumference_mm: float
+    circumference_mm: float = Field(description="perimeter of the scan's section at this height")
+    tape_girth_mm: float | None = Field(
+        None, description="perimeter of its convex hull: what a tape measure, ANSUR and the hosiery standards "
+        "read (record version 2; absent in version 1)")
+    at_scan_edge: bool = Field(
+        False, description="B or D was taken at the scan's edge (the scan starts at the ankle minimum or ends "
+        "at the knee waist); see warnings")
+
+
+class SideInference(BaseModel):
+    side: str | None = Field(description="left | right | null when it could not be told")
+    confidence: float | None = Field(None, description="0.5-1 for a side read from the foot")
+    source: str | None = Field(None, description="given (the side option) | body (the other leg of the scan) | "
+                               "foot (the hallux, arch and malleoli of a single leg) | null")
 
 
 class Surface(BaseModel):
@@ -26,9 +39,12 @@ class CalfRecordBody(BaseModel):
     """A calf record (see app.geometry.record for every field)."""
 
     model_config = ConfigDict(extra="allow")
-    schema_version: int = 1
+    schema_version: int = Field(2, description="1 or 2; version 2 adds tape girths, warnings and side_inference")
     units: str = "mm"
     side: str | None = None
+    side_inference: SideInference | None = None
+    warnings: list[str] = Field(default_factory=list, description="what the fit noticed about the scan, in words: "
+                                "landmarks at its edge, a floor or spikes removed, pieces ignored, a bent knee")
     surface: Surface
     frame: list[list[float]] = Field(description="4x4: calf-frame mm -> the scan's own coordinates and units")
     landmarks: dict[str, Landmark] = Field(default_factory=dict)
@@ -89,6 +105,8 @@ class GirthOut(BaseModel):
 
 class LandmarkGirth(GirthOut):
     scan_circumference_mm: float = Field(description="the girth measured on the scan when the record was fitted")
+    scan_tape_girth_mm: float | None = Field(None, description="the tape girth measured on the scan (record version 2)")
+    at_scan_edge: bool = Field(False, description="the landmark lies at the scan's edge (see warnings)")
 
 
 class MeasurementsOut(BaseModel):
@@ -98,6 +116,7 @@ class MeasurementsOut(BaseModel):
     landmarks: dict[str, LandmarkGirth]
     heights: list[GirthOut]
     lengths_mm: dict[str, float] = Field(description="height differences along the calf axis between landmarks")
+    warnings: list[str] = Field(default_factory=list, description="the record's warnings about its scan")
 
 
 class Health(BaseModel):

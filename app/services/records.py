@@ -93,6 +93,8 @@ class RecordService:
                 "circumference_mm": g.circumference_mm,
                 "tape_circumference_mm": g.tape_mm,
                 "scan_circumference_mm": parsed.landmarks[name]["circumference_mm"],
+                "scan_tape_girth_mm": parsed.landmarks[name].get("tape_girth_mm"),
+                "at_scan_edge": bool(parsed.landmarks[name].get("at_scan_edge", False)),
             }
             for name, g in zip(names, measured[: len(names)])
         }
@@ -111,6 +113,7 @@ class RecordService:
                 for g in measured[len(names):]
             ],
             "lengths_mm": lengths,
+            "warnings": list(parsed.warnings),
         }
 
 

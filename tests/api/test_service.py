@@ -76,6 +76,11 @@ def test_measurements_come_from_the_surface(client, fitted_records):
         # the surface interpolates the layer contours: its girth equals the scan's within 1%
         assert lm["circumference_mm"] == pytest.approx(lm["scan_circumference_mm"], rel=0.01)
         assert lm["tape_circumference_mm"] <= lm["circumference_mm"] + 1e-6
+        # the scan's tape girth (record v2) is what the surface's tape reads, within 1%
+        assert lm["scan_tape_girth_mm"] == pytest.approx(record["landmarks"][name]["tape_girth_mm"])
+        assert lm["tape_circumference_mm"] == pytest.approx(lm["scan_tape_girth_mm"], rel=0.01)
+        assert lm["at_scan_edge"] is False
+    assert body["warnings"] == record["warnings"]
     assert [h["height_mm"] for h in body["heights"]] == [30, 120.5]
     assert body["lengths_mm"]["B-D"] == pytest.approx(record["landmarks"]["D"]["height_mm"])
     assert sum(body["lengths_mm"][k] for k in ("B-B1", "B1-C", "C-D")) == pytest.approx(body["lengths_mm"]["B-D"])
