@@ -29,6 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.geometry.calf_frame import principal_axis
+
 #: centre-line bins along the leg, and the straightness tolerance of a run, mm
 CENTRE_LINE_BIN_MM = 15.0
 BEND_TOLERANCE_MM = 25.0
@@ -85,16 +87,11 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / max(float(np.linalg.norm(v)), 1e-12)
 
 
-def _line(centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares line (point (3,), unit direction (3,)) through centroids (b, 3)."""
-    mean = centres.mean(axis=0)
-    return mean, np.linalg.svd(centres - mean)[2][0]
-
-
 def _knee_point(run: np.ndarray, other: np.ndarray) -> np.ndarray:
     """The knee (3,): where the shank's and the thigh's centre lines come closest (the
     bins at the bend mix both limbs, so the lines are fitted to the runs' inner bins)."""
-    (p, u), (q, v) = _line(run), _line(other)
+    p, q = run.mean(axis=0), other.mean(axis=0)
+    u, v = principal_axis(run), principal_axis(other)
     w = p - q
     a, b, c, d, e = u @ u, u @ v, v @ v, u @ w, v @ w
     den = a * c - b * b

@@ -266,13 +266,20 @@ def _either_way(heights: np.ndarray, girth: np.ndarray) -> tuple[FeatureHeights,
     raise failures[0][0] if ends_up else failures[1][0]
 
 
-def _orient(points, faces, axis, basis, up, knee=None):
+def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
+    """Which end of the profile along ``axis`` a bent knee's cut lies at: +1 top, -1
+    bottom, 0 no cut (the first half-space passes through the knee)."""
+    if not half_spaces:
+        return 0
+    return 1 if (half_spaces[0][0] - centre) @ axis > 0 else -1
+
+
+def _orient(points, faces, axis, basis, up, half_spaces=()):
     """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
-    girths, sections, features, axis, basis.  ``knee`` (3,): where a bent leg was cut."""
+    girths, sections, features, axis, basis.  ``half_spaces``: a bent knee's cut."""
     centre = points.mean(axis=0)
     local = (points - centre) @ basis.T
-    cut_end = 0 if knee is None else (1 if (knee - centre) @ axis > 0 else -1)
-    heights, girth, sections = _profile(local, faces, cut_end=cut_end)
+    heights, girth, sections = _profile(local, faces, cut_end=_cut_end(half_spaces, centre, axis))
     if up is not None:
         feats = find_feature_heights(heights, girth)
     else:
@@ -329,7 +336,6 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
         )
     axis, basis = _first_axis(samples, weights, shape_axes, up)
     half_spaces: tuple = ()
-    knee_point = None
     try:
         centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, axis, basis, up)
     except FitFailure as straight_failure:
@@ -338,13 +344,12 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
             run_basis = cf.perpendicular_basis(run.direction, basis[1])
             run_points, run_faces = _clip(points, faces, run.half_spaces)
             try:
-                knee = run.half_spaces[0][0] if run.half_spaces else None
-                oriented = _orient(run_points, run_faces, run.direction, run_basis, None, knee)
+                oriented = _orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces)
             except FitFailure as failure:
                 run_failures.append(failure)
                 continue
             centre, local, heights, girth, sections, feats, axis, basis = oriented
-            points, faces, half_spaces, knee_point = run_points, run_faces, run.half_spaces, knee
+            points, faces, half_spaces = run_points, run_faces, run.half_spaces
             kept = keep_index(samples, half_spaces)
             samples, weights = samples[kept], None if weights is None else weights[kept]
             break
@@ -374,8 +379,7 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
         basis = cf.perpendicular_basis(axis, basis[1])
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
-        cut_end = 0 if knee_point is None else (1 if (knee_point - centre) @ axis > 0 else -1)
-        heights, girth, sections = _profile(local, faces, window, cut_end)
+        heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
         feats = find_feature_heights(heights, girth, feats.c_mm)
 
     # anterior: the foot when there is one, else opposite the calf bulge
