@@ -16,7 +16,7 @@ Units: mm.  Heights are positions along the slicing axis.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
@@ -43,6 +43,11 @@ SHOULDER_FRACTION = 0.35
 FLANK_MM = 150.0
 #: re-detection keeps C within this distance of its previous height, mm
 C_HINT_MM = 40.0
+#: the calf's crown: the heights around the maximum whose girth is within this fraction
+#: of it (0.5%: 2 mm on a 400 mm calf, the reading resolution of a tape measure, +-1 mm
+#: at each end).  A tape cannot tell these heights apart, so where the maximum lies
+#: among them is noise; C is the middle of the crown, which a re-scan reproduces
+CROWN_FRACTION = 0.005
 #: landmarks at the scan's edge: the girth over the last EDGE_FIT_MM of the scan is fitted
 #: by a parabola; B (or D) is taken at the edge when the parabola's minimum lies inside
 #: the scan or at most EDGE_REACH_MM beyond its edge (the ankle and knee waists are
@@ -133,7 +138,7 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
     True maxima: local maxima of the smoothed girth with >= 1 mm prominence, bottom up.
     Shoulders (for calves whose girth only levels off before rising to the knee): local
     minima of the slope below :data:`SHOULDER_FRACTION` of the steepest slope
-    in the :data:`FLANK_MM` below, bottom up.  Returns the two
+    in the :data:`FLANK_MM` below, where the girth is the highest of that flank, bottom up.  Returns the two
     index arrays.
     """
     peaks, _ = find_peaks(g, prominence=1.0)
@@ -142,7 +147,10 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
     spacing = float(np.median(np.diff(heights)))
     reach = max(int(round(FLANK_MM / spacing)), 1)
     flank = np.array([slope[max(i - reach, 0) : i + 1].max() for i in dips]) if dips.size else np.zeros(0)
-    shoulders = dips[slope[dips] < SHOULDER_FRACTION * flank]
+    # a shoulder levels off a rising flank: its girth is the highest of the flank below
+    # it (to the crown's tolerance); a pause in a falling girth above the calf is not one
+    highest = np.array([g[max(i - reach, 0) : i + 1].max() for i in dips]) if dips.size else np.zeros(0)
+    shoulders = dips[(slope[dips] < SHOULDER_FRACTION * flank) & (g[dips] >= (1.0 - CROWN_FRACTION) * highest)]
     return peaks, shoulders
 
 
@@ -170,7 +178,8 @@ def _check_candidate(heights, g, raw, ok, local_min, ic, bottom, top, spacing) -
         ib, b_edge = np.flatnonzero(below)[np.argmin(g[below])], True
     # walk down from B until the girth passes the foot's (a knee waist has only the calf
     # below it, a real ankle the heel and instep)
-    down = np.flatnonzero(ok & (heights < heights[ib] - INTERIOR_MARGIN_MM))[::-1]
+    # (not the lowest INTERIOR_MARGIN_MM of the scan: its edge sections are often partial)
+    down = np.flatnonzero(ok & (heights < heights[ib] - INTERIOR_MARGIN_MM) & (heights >= bottom + INTERIOR_MARGIN_MM))[::-1]
     foot = np.flatnonzero(g[down] >= FOOT_RATIO * g[ib])
     lower = down[: foot[0]] if foot.size else down
     if lower.size and g[lower].min() < (1.0 - NARROWER_BELOW) * g[ib]:
@@ -237,7 +246,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
 
     C is the first calf candidate above the ankle (see :func:`_calf_candidates`) that
     has an interior ankle minimum below it and an interior minimum above it; peaks of a
-    plateau separated by a dip shallower than 2% are merged (the higher wins).
+    plateau whose girths between them stay within 2% are merged (the higher wins), and C
+    is then the middle of the crown (:func:`crown_centre`).
     heights (k,) ascending, evenly spaced, mm; girth (k,) mm (NaN where missing).
     ``near_c_mm``: when re-detecting after a small change of axis, only candidates
     within :data:`C_HINT_MM` of the previous C are considered (if there are any), so the
@@ -260,11 +270,10 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         near_peaks = peaks[np.abs(heights[peaks] - near_c_mm) <= C_HINT_MM]
         near_shoulders = shoulders[np.abs(heights[shoulders] - near_c_mm) <= C_HINT_MM]
         if near_peaks.size or near_shoulders.size:
-            peaks, shoulders = near_peaks, near_shoulders
-        else:  # the flattest point near the previous C
-            window = np.flatnonzero(np.abs(heights - near_c_mm) <= C_HINT_MM)
-            slope = np.abs(np.gradient(g, heights))[window]
-            peaks, shoulders = np.array([], dtype=np.int64), window[[np.argmin(slope)]]
+            # the crown search starts at the first candidate near the previous C and may
+            # still grow up its crown; none near: all candidates compete again
+            peaks = peaks[heights[peaks] >= heights[near_peaks].min()] if near_peaks.size else near_peaks
+            shoulders = shoulders[heights[shoulders] >= heights[near_shoulders].min()] if near_shoulders.size else near_shoulders
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
     if peaks.size == 0 and shoulders.size == 0:
@@ -290,13 +299,17 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 valid.append((int(ic), outcome))
         if valid:
             index, best = valid[0]
-            for other_index, other in valid[1:] if group is peaks else ():
+            # candidates less than 100 mm apart whose girths between them stay within 2%
+            # (a dip between peaks, a rise between shoulders) are one crown: the higher wins
+            for other_index, other in valid[1:]:
                 if heights[other_index] - heights[index] > 100.0:
                     break
-                dip = g[index : other_index + 1].min()
-                if other.girth_c_mm > best.girth_c_mm and dip >= 0.98 * best.girth_c_mm:
+                span = g[index : other_index + 1]
+                same_crown = span.min() >= 0.98 * best.girth_c_mm and span.max() <= 1.02 * best.girth_c_mm
+                if other.girth_c_mm > best.girth_c_mm and same_crown:
                     index, best = other_index, other
-            return best
+            crown = crown_centre(heights, g, index, best.b_mm, best.d_mm - KNEE_ABOVE_CALF_MM[0])
+            return replace(best, c_mm=float(heights[crown]), girth_c_mm=float(g[crown]))
     # the scan stops inside the calf: above its narrowest point the girth is largest at
     # the top edge (the knee waist is missing); below it, at the bottom edge (the ankle)
     # (only when no candidate found even an ankle: otherwise that candidate says more)
@@ -314,6 +327,26 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     raise max(failures, key=lambda item: (item[0], item[1]))[2]
+
+
+def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, high_mm: float) -> int:
+    """Index of the middle of the calf's crown around the maximum at index ``ic``.
+
+    The crown is the connected run of heights around ``ic``, strictly between
+    ``low_mm`` and ``high_mm``, whose smoothed girth ``g`` (k,) differs from ``g[ic]``
+    by at most :data:`CROWN_FRACTION` of it; heights (k,) ascending, mm.  On a peaked
+    calf the crown is a few millimetres long and C barely moves; on a flat one C no
+    longer depends on which point of the plateau the noise made highest.
+    """
+    level = np.abs(g - g[ic]) <= CROWN_FRACTION * g[ic]
+    level &= (heights > low_mm) & (heights < high_mm)
+    if not level[ic]:
+        return ic
+    breaks = np.flatnonzero(~level)
+    start = breaks[breaks < ic].max() + 1 if (breaks < ic).any() else 0
+    stop = breaks[breaks > ic].min() - 1 if (breaks > ic).any() else len(g) - 1
+    middle = 0.5 * (heights[start] + heights[stop])
+    return int(start + np.argmin(np.abs(heights[start : stop + 1] - middle)))
 
 
 #: how far a candidate got before it failed (higher is more informative)

@@ -66,6 +66,11 @@ REDETECT_DEG = 2.0
 MIN_END_COVERAGE = 0.9
 #: an oblique crop (up to ~15 degrees across a 70 mm leg) spans this much of the axis, mm
 END_CUT_MM = 25.0
+#: a leg's girth rises at most ~1%/mm anywhere above the ankle (about 0.5%/mm at the
+#: knee): a rise of 10% within 5 mm means the plane has reached another body part (a
+#: bent knee's thigh); the corpus truth ends the shank's sections by the same rule
+MERGE_RISE = 0.10
+MERGE_RUN_MM = 5.0
 #: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
 COARSE_ANGLES = 36
 #: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
@@ -182,6 +187,17 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
         inwards = np.arange(len(heights))[::-cut_end]  # from the cut end into the leg
         whole = sections.coverage[inwards] >= MIN_END_COVERAGE
         partial[inwards[: int(np.argmax(whole)) if whole.any() else len(inwards)]] = True
+        # whole sections can still reach the thigh on the shank's side of the cut (a knee
+        # bent past ~60 degrees): from the middle of the leg towards the cut, the shank's
+        # sections end at the first girth rise of MERGE_RISE within MERGE_RUN_MM
+        outwards = inwards[::-1]
+        g = np.where(partial, np.nan, girth)[outwards]
+        run = max(int(round(MERGE_RUN_MM / spacing)), 1)
+        with np.errstate(invalid="ignore"):
+            rise = g[run:] > (1.0 + MERGE_RISE) * g[:-run]
+        jumps = np.flatnonzero(rise[len(g) // 2 :]) + len(g) // 2
+        if jumps.size:
+            partial[outwards[jumps[0] + 1 :]] = True
     girth[partial] = np.nan
     return heights, girth, sections
 

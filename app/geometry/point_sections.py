@@ -105,9 +105,9 @@ def robust_polar_fit(bin_radius: np.ndarray, harmonics: int = HARMONICS) -> np.n
         rhs = (weight * target) @ design
         coefficients = np.linalg.solve(normal, rhs[..., None])[..., 0]
         residual = np.where(has, target - coefficients @ design.T, np.nan)
-        with np.errstate(all="ignore"):
-            scale = 1.4826 * np.nanmedian(np.abs(residual), axis=1)
-        scale = np.maximum(np.nan_to_num(scale, nan=MIN_SCALE_MM), MIN_SCALE_MM)
+        scale = np.full(k, MIN_SCALE_MM)
+        rows = has.any(axis=1)  # (a section with no point at all keeps the floor scale)
+        scale[rows] = np.maximum(1.4826 * np.nanmedian(np.abs(residual[rows]), axis=1), MIN_SCALE_MM)
         u = np.nan_to_num(residual / (TUKEY_C * scale[:, None]), nan=2.0)
         weight = np.where(np.abs(u) < 1.0, (1.0 - u**2) ** 2, 0.0) * has
     return coefficients

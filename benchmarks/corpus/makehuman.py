@@ -176,12 +176,35 @@ def subject_sliders(subject: dict, rng: np.random.Generator) -> Sliders:
     )
 
 
+def height_for_shank(sliders: Sliders, shank_mm: float) -> float:
+    """The height slider that gives ``sliders``' body a shank (ankle joint to knee joint)
+    of ``shank_mm``.
+
+    MakeHuman's height slider scales the whole body, and from stature alone it makes
+    tall subjects' shanks far longer than ANSUR II's (530 mm for a 1836 mm man whose
+    tibiale-to-lateral-malleolus length is 418 mm; ANSUR II's longest is 499 mm).  The
+    lower leg is what is scanned, so its length is matched: the vertices are linear in
+    the slider on each side of 0.5, so the shank length is sampled every 0.05 and
+    inverted by interpolation (clipped to the slider's range).  Tibiale height minus
+    lateral malleolus height is taken as the joint-to-joint length (both landmarks lie
+    within ~1 cm of the joint centres).
+    """
+    grid = np.linspace(0.0, 1.0, 21)
+    lengths = []
+    for h in grid:
+        joints = joints_mm(blend(Sliders(**{**sliders.__dict__, "height": float(h)})))
+        lengths.append(float(np.linalg.norm(joints["l-knee"] - joints["l-ankle"])))
+    return float(np.interp(shank_mm, np.maximum.accumulate(lengths), grid))
+
+
 def sized_legs(subject: dict, rng: np.random.Generator, knee_flexion_deg: float = 0.0,
                plantar_flexion_deg: float = 0.0, subdivisions: int = 2) -> GeneratedLegs:
-    """Both legs of ``subject``: blended, girths matched, posed, subdivided (mm)."""
+    """Both legs of ``subject``: blended, shank length and girths matched, posed,
+    subdivided (mm)."""
     from benchmarks.corpus.truth import quick_girths
 
     base = subject_sliders(subject, rng)
+    base = Sliders(**{**base.__dict__, "height": height_for_shank(base, subject["tibialheight"] - subject["lateralmalleolusheight"])})
     first = blend(base)
     girth_b, girth_c = quick_girths(first)
     ankle = float(np.clip((subject["anklecircumference"] - girth_b) / ANKLE_MM_PER_UNIT, -1.0, 1.0))

@@ -8,6 +8,9 @@ perpendicular to the leg's long axis).  On the hull (tape) girth profile, lightl
 smoothed (Gaussian, sigma 3 mm): C is the largest girth in the middle 20-80% of the
 shank, B the smallest between the ankle joint and C, D the smallest between C and
 60 mm above the knee joint, B1 the steepest rise between B and C (paper section 2.2).
+On a flat calf, C is then moved to the middle of its crown: the heights around the
+maximum whose girth a tape cannot tell from it (within 0.5%, the same definition as
+the service's, since the paper's "maximum" is not a height on a plateau).
 A bent knee brings the thigh into the upper planes: the shank's sections end where
 the girth jumps (:data:`MERGE_RISE`), and C and D are looked for below that.
 Girths are read on the unsmoothed profile at those heights.  Units: mm.
@@ -29,6 +32,8 @@ KNEE_REACH_MM = 60.0
 #: rise of 10% within 5 mm means the plane has reached another body part (the thigh)
 MERGE_RISE = 0.10
 MERGE_RUN_MM = 5.0
+#: the calf's crown: girths within this fraction of the maximum (tape resolution)
+CROWN_FRACTION = 0.005
 
 
 @dataclass(frozen=True)
@@ -113,6 +118,12 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
     edge = int(np.searchsorted(heights, end))
     falling = edge >= 10 and g[edge - 10] > 1.02 * g[edge - 1]
     knee_hidden = bool(end - heights[id_] <= MERGE_RUN_MM and falling) or bool(end - heights[ic] <= MERGE_RUN_MM)
+    crown = np.flatnonzero(np.abs(g - g[ic]) <= CROWN_FRACTION * g[ic])
+    crown = crown[(crown > ib) & (crown < id_)]
+    if crown.size:  # the run of crown heights that holds the maximum, and its middle
+        runs = np.split(crown, np.flatnonzero(np.diff(crown) > 1) + 1)
+        run = next((r for r in runs if r[0] <= ic <= r[-1]), np.array([ic]))
+        ic = int(run[np.argmin(np.abs(heights[run] - 0.5 * (heights[run[0]] + heights[run[-1]])))])
     slope = np.gradient(g, heights)
     between = np.arange(ib + 1, ic)
     ib1 = between[np.argmax(slope[between])] if between.size else (ib + ic) // 2
