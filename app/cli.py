@@ -1,4 +1,4 @@
-"""Command line: ``calf-nurbs fit | export | serve | worker | design``.
+"""Command line: ``calf-nurbs fit | export | serve | worker | design | keys``.
 
 Exit codes: 0 success, 2 bad usage, 3 the scan/record cannot be processed (the reason
 is printed to stderr as JSON ``{"error": reason, "detail": ...}``).
@@ -90,8 +90,52 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     from app.db.migrate import upgrade_to_head
     from app.settings import get_settings
 
+    import os
+
+    # the bound address decides whether auth is required by default (CALF_AUTH)
+    os.environ["CALF_HOST"] = args.host
+    get_settings.cache_clear()
     upgrade_to_head(get_settings().resolved_database_url)
     uvicorn.run("app.main:app", host=args.host, port=args.port, workers=1)
+    return 0
+
+
+def _keys_session():
+    from app.db.migrate import upgrade_to_head
+    from app.db.session import session_factory
+    from app.settings import get_settings
+
+    url = get_settings().resolved_database_url
+    upgrade_to_head(url)
+    return session_factory(url)()
+
+
+def _cmd_keys(args: argparse.Namespace) -> int:
+    """Admin: API keys of the tenants (clinics), on the service's database."""
+    from app.errors import ServiceError
+    from app.services.keys import KeyService, parse_scopes
+
+    with _keys_session() as session:
+        service = KeyService(session)
+        try:
+            if args.keys_command == "create":
+                issued = service.create(args.tenant, parse_scopes(args.scopes), args.label, args.expires_days)
+                expires = issued.expires_at.isoformat(timespec="seconds") if issued.expires_at else "never"
+                print(f"tenant: {issued.tenant}\nprefix: {issued.prefix}\nscopes: {' '.join(issued.scopes)}\n"
+                      f"expires: {expires}\nthe key is shown only now; give it to the clinic:")
+                print(issued.key)
+            elif args.keys_command == "list":
+                print("prefix\ttenant\tscopes\tcreated\texpires\trevoked\tlast_used\tlabel")
+                for key, tenant in service.listing(args.tenant):
+                    when = [t.isoformat(timespec="seconds") if t else "-" for t in
+                            (key.created_at, key.expires_at, key.revoked_at, key.last_used_at)]
+                    print("\t".join([key.prefix, tenant, key.scopes.replace(" ", ","), *when, key.label or "-"]))
+            else:
+                key = service.revoke(args.prefix)
+                print(f"revoked {key.prefix}")
+        except ServiceError as exc:
+            print(f"error: {exc.detail}", file=sys.stderr)
+            return 2
     return 0
 
 
@@ -172,6 +216,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     worker = sub.add_parser("worker", help="run queued fitting jobs (no HTTP); for CALF_RUN_JOBS=false API processes")
     worker.set_defaults(func=_cmd_worker)
+
+    keys = sub.add_parser("keys", help="API keys of the tenants (clinics): create, list, revoke")
+    keys_sub = keys.add_subparsers(dest="keys_command", required=True)
+    create = keys_sub.add_parser("create", help="a new key; printed alone on the last line, once")
+    create.add_argument("--tenant", required=True, help="the clinic (created if new)")
+    create.add_argument("--scopes", default="upload,read,design", help="some of upload,read,design,admin")
+    create.add_argument("--label", help="a note: who or what the key is for")
+    create.add_argument("--expires-days", type=float, help="the key expires after this many days")
+    listing = keys_sub.add_parser("list", help="keys (prefixes, never secrets)")
+    listing.add_argument("--tenant")
+    revoke = keys_sub.add_parser("revoke", help="revoke a key by its prefix (cnk_xxxxxxxx)")
+    revoke.add_argument("prefix")
+    keys.set_defaults(func=_cmd_keys)
 
     design = sub.add_parser("design", help="design a graduated compression stocking from a record")
     design.add_argument("record")

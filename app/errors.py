@@ -31,6 +31,16 @@ class EmptyBody(ServiceError):
     status, code, title = 400, "empty_body", "The request body is empty"
 
 
+class Unauthorized(ServiceError):
+    """401: no valid API key (the response carries WWW-Authenticate)."""
+
+    status, code, title = 401, "unauthorized", "An API key is needed"
+
+
+class Forbidden(ServiceError):
+    status, code, title = 403, "forbidden", "The API key may not do this"
+
+
 class NotFound(ServiceError):
     status, code, title = 404, "not_found", "Not found"
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
@@ -15,10 +16,14 @@ from app.jobs.runner import EmbeddedRunner
 from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
 
+log = logging.getLogger("calf_nurbs")
+
 DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf
 (Li et al., *Fast NURBS-based parametric modeling of human calves*), and serves the
 surface, its measurements and graduated compression stocking designs.
 
+Every `/api/v1` request carries the clinic's API key (`Authorization: Bearer <key>` or
+`X-API-Key: <key>`); a clinic sees only its own scans, jobs, records and designs.
 Upload a scan (`POST /api/v1/scans`), poll the job it returns, then fetch the record,
 its surface (STL / GLB / glTF in the scan's own coordinates) and its measurements.
 Every error is an RFC 9457 `application/problem+json` document whose `type` ends in a
@@ -37,6 +42,10 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.engine_dialect = engine_for(url).dialect.name
         app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s, settings.run_jobs)
+        if not settings.auth_required:
+            log.warning("API keys are not required (CALF_AUTH=off or bound to %s): every request acts for the "
+                        "tenant 'default'. Bind to a public address or set CALF_AUTH=required to require keys.",
+                        settings.host)
         await app.state.runner.start()
         try:
             yield

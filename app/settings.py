@@ -4,9 +4,14 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
+from typing import Literal
 
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
+
+
+#: addresses only this machine can reach
+LOCAL_HOSTS = ("127.0.0.1", "::1", "localhost")
 
 
 class Settings(BaseSettings):
@@ -20,6 +25,11 @@ class Settings(BaseSettings):
     CALF_MAX_UPLOAD_MB   largest scan accepted, counted on the bytes received (200)
     CALF_RUN_JOBS        false: this process accepts uploads but fits nothing (an API
                          container whose jobs a `calf-nurbs worker` process runs)
+    CALF_HOST            the address the service is bound to (set by `calf-nurbs serve`)
+    CALF_AUTH            required | off.  Default: required, unless the service is bound
+                         to localhost (127.0.0.1, ::1, localhost), where it is off and
+                         every request acts for the tenant "default" (a warning is logged
+                         at start-up).  Keys: `calf-nurbs keys create`.
     """
 
     model_config = SettingsConfigDict(env_prefix="CALF_", env_file=None)
@@ -31,6 +41,14 @@ class Settings(BaseSettings):
     run_jobs: bool = True
     validation_timeout_s: float = Field(60.0, gt=0)
     job_timeout_s: float = Field(600.0, gt=0)
+    host: str = "127.0.0.1"
+    auth: Literal["required", "off"] | None = None
+
+    @property
+    def auth_required(self) -> bool:
+        if self.auth is not None:
+            return self.auth == "required"
+        return self.host not in LOCAL_HOSTS
 
     @property
     def resolved_database_url(self) -> str:

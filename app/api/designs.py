@@ -8,14 +8,16 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
+from app.api.auth import authorize
 from app.api.deps import get_session
-from app.api.problems import problems
+from app.api.problems import auth_problems, problems
 from app.api.schemas import DesignOut, DesignRequest
 from app.errors import NotAcceptable, NotFound
 from app.services import charts
+from app.services.keys import Principal
 from app.services.designs import DesignService, color_scale, design_view, knitting_csv, pressure_grid, pressure_map_csv, pressure_map_glb
 
-router = APIRouter(prefix="/api/v1", tags=["designs"])
+router = APIRouter(prefix="/api/v1", tags=["designs"], responses=auth_problems())
 
 DESIGN_PROBLEMS = problems(
     s404="record_not_found",
@@ -27,27 +29,27 @@ DESIGN_PROBLEMS = problems(
 @router.post("/records/{record_id}/designs", status_code=201, response_model=DesignOut,
              summary="Design a graduated compression stocking from a record (stored with its inputs)",
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}}, **DESIGN_PROBLEMS})
-def create_design(record_id: str, request: DesignRequest, session: Session = Depends(get_session)):
-    design = DesignService(session).create(record_id, request.model_dump())
+def create_design(record_id: str, request: DesignRequest, session: Session = Depends(get_session), principal: Principal = Depends(authorize("design"))):
+    design = DesignService(session, principal.tenant_id).create(record_id, request.model_dump())
     return JSONResponse(jsonable_encoder(design_view(design)), status_code=201, headers={"Location": f"/api/v1/designs/{design.id}"})
 
 
 @router.get("/records/{record_id}/designs", response_model=list[DesignOut], summary="The designs made from a record",
             responses=problems(s404="record_not_found"))
-def list_designs(record_id: str, session: Session = Depends(get_session)):
-    return [design_view(d) for d in DesignService(session).for_record(record_id)]
+def list_designs(record_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
+    return [design_view(d) for d in DesignService(session, principal.tenant_id).for_record(record_id)]
 
 
 @router.get("/designs/{design_id}", response_model=DesignOut, summary="A design: pressures, checks, hot spots, knitting spec",
             responses=problems(s404="design_not_found"))
-def get_design(design_id: str, session: Session = Depends(get_session)):
-    return design_view(DesignService(session).get(design_id))
+def get_design(design_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
+    return design_view(DesignService(session, principal.tenant_id).get(design_id))
 
 
 @router.get("/designs/{design_id}/knitting-spec", summary="The knitting specification as CSV (one row per height)",
             response_class=Response, responses={200: {"content": {"text/csv": {}}, "description": "CSV"}, **problems(s404="design_not_found")})
-def get_knitting_spec(design_id: str, session: Session = Depends(get_session)):
-    design = DesignService(session).get(design_id)
+def get_knitting_spec(design_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
+    design = DesignService(session, principal.tenant_id).get(design_id)
     return Response(knitting_csv(design.result), media_type="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="knitting-{design.id[:12]}.csv"'})
 
@@ -57,13 +59,13 @@ def get_knitting_spec(design_id: str, session: Session = Depends(get_session)):
             responses={200: {"content": {"model/gltf-binary": {}, "text/csv": {}}, "description": "the map"},
                        **problems(s404="design_not_found", s406="not_acceptable")})
 async def get_pressure_map(design_id: str, request: Request, file_format: str | None = Query(None, alias="format", description="glb | csv"),
-                           session: Session = Depends(get_session)):
+                           session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     accept = (request.headers.get("accept") or "*/*").lower()
     fmt = (file_format or ("csv" if "text/csv" in accept and "gltf" not in accept else "glb" if any(
         m in accept for m in ("model/gltf-binary", "*/*", "model/*")) else "")).lower()
     if fmt not in ("glb", "csv"):
         raise NotAcceptable("the pressure map is available as model/gltf-binary or text/csv")
-    service = DesignService(session)
+    service = DesignService(session, principal.tenant_id)
     design = await run_in_threadpool(service.get, design_id)
     record = await run_in_threadpool(service.record_of, design)
     if fmt == "csv":
@@ -75,10 +77,10 @@ async def get_pressure_map(design_id: str, request: Request, file_format: str | 
 
 @router.get("/designs/{design_id}/charts/{name}.png", summary="PNG charts: profile, pressure or map", response_class=Response,
             responses={200: {"content": {"image/png": {}}, "description": "PNG"}, **problems(s404="design_not_found or chart_not_found")})
-async def get_chart(design_id: str, name: str, session: Session = Depends(get_session)):
+async def get_chart(design_id: str, name: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     if name not in charts.CHARTS:
         raise NotFound(f"no chart {name!r}; charts are {', '.join(charts.CHARTS)}", code="chart_not_found")
-    service = DesignService(session)
+    service = DesignService(session, principal.tenant_id)
     design = await run_in_threadpool(service.get, design_id)
     record = await run_in_threadpool(service.record_of, design)
 

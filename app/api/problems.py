@@ -46,7 +46,10 @@ def problem_response(request: Request, status: int, code: str, title: str, detai
 def install_problem_handlers(app: FastAPI) -> None:
     @app.exception_handler(ServiceError)
     async def service_error(request: Request, exc: ServiceError):
-        return problem_response(request, exc.status, exc.code, exc.title, exc.detail, exc.extra)
+        response = problem_response(request, exc.status, exc.code, exc.title, exc.detail, exc.extra)
+        if exc.status == 401:
+            response.headers["WWW-Authenticate"] = 'Bearer realm="calf-nurbs"'
+        return response
 
     @app.exception_handler(FitFailure)
     async def fit_failure(request: Request, exc: FitFailure):
@@ -94,3 +97,12 @@ def add_problem_schema(schema: dict) -> dict:
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     components["Problem"] = Problem.model_json_schema(ref_template="#/components/schemas/{model}")
     return schema
+
+
+def auth_problems() -> dict:
+    """The problems every /api/v1 route can answer about its API key."""
+    return problems(
+        s401="missing_key / invalid_key: no API key, or a malformed, unknown, revoked or expired one "
+        "(WWW-Authenticate: Bearer)",
+        s403="insufficient_scope: the key lacks the scope this operation needs",
+    )

@@ -8,13 +8,15 @@ from fastapi.encoders import jsonable_encoder
 from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
+from app.api.auth import authorize
 from app.api.deps import get_session
-from app.api.problems import problems
+from app.api.problems import auth_problems, problems
 from app.api.schemas import MeasurementsOut, RecordOut, RecordPage
 from app.errors import NotAcceptable, Unprocessable
+from app.services.keys import Principal
 from app.services.records import SURFACE_MEDIA_TYPES, RecordService, surface_etag
 
-router = APIRouter(prefix="/api/v1", tags=["records"])
+router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 
 MEDIA_TO_FORMAT = {media: fmt for fmt, media in SURFACE_MEDIA_TYPES.items()}
 
@@ -45,15 +47,16 @@ def list_records(
     limit: int = Query(50, ge=1, le=500),
     cursor: str | None = Query(None, description="next_cursor of the previous page"),
     session: Session = Depends(get_session),
+    principal: Principal = Depends(authorize("read")),
 ):
-    rows, next_cursor = RecordService(session).page(limit, cursor)
+    rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor)
     return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
 
 
 @router.get("/records/{record_id}", response_model=RecordOut, summary="A record: control points, knots, weights, landmarks, fit statistics",
             responses=problems(s404="record_not_found"))
-def get_record(record_id: str, session: Session = Depends(get_session)):
-    record = RecordService(session).get(record_id)
+def get_record(record_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
+    record = RecordService(session, principal.tenant_id).get(record_id)
     response = JSONResponse(jsonable_encoder(record_out(record)))
     response.headers["ETag"] = f'"{record.etag}"'
     return response
@@ -63,8 +66,8 @@ def get_record(record_id: str, session: Session = Depends(get_session)):
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
                         **problems(s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
 def import_record(data: dict = Body(..., description="a calf record (schema_version 1 or 2, see CalfRecordBody)"),
-                  session: Session = Depends(get_session)):
-    service = RecordService(session)
+                  session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
+    service = RecordService(session, principal.tenant_id)
     record = service.import_record(data)
     session.commit()
     return JSONResponse(jsonable_encoder(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
@@ -72,8 +75,8 @@ def import_record(data: dict = Body(..., description="a calf record (schema_vers
 
 @router.delete("/records/{record_id}", status_code=204, summary="Delete a record (its scan stays stored)",
                responses=problems(s404="record_not_found"))
-def delete_record(record_id: str, session: Session = Depends(get_session)):
-    RecordService(session).delete(record_id)
+def delete_record(record_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
+    RecordService(session, principal.tenant_id).delete(record_id)
     session.commit()
     return Response(status_code=204)
 
@@ -129,9 +132,10 @@ async def get_surface(
     around: int = Query(144, description="samples around the leg (8-1440)"),
     along: int = Query(100, description="samples along the leg (2-2000)"),
     session: Session = Depends(get_session),
+    principal: Principal = Depends(authorize("read")),
 ):
     fmt = negotiate_surface_format(request.headers.get("accept"), file_format)
-    service = RecordService(session)
+    service = RecordService(session, principal.tenant_id)
     record = await run_in_threadpool(service.get, record_id)
     etag = f'"{surface_etag(record.etag, fmt, around, along)}"'
     matches = [tag.strip() for tag in (request.headers.get("if-none-match") or "").split(",")]
@@ -154,6 +158,7 @@ async def get_measurements(
     record_id: str,
     heights: str | None = Query(None, description="comma-separated calf-frame heights in mm, e.g. 50,120.5"),
     session: Session = Depends(get_session),
+    principal: Principal = Depends(authorize("read")),
 ):
     extra: list[float] = []
     if heights:
@@ -163,4 +168,4 @@ async def get_measurements(
             raise Unprocessable(f"heights must be numbers in mm separated by commas, not {heights!r}", code="invalid_heights") from exc
         if len(extra) > 200:
             raise Unprocessable("at most 200 heights per request", code="invalid_heights")
-    return await run_in_threadpool(RecordService(session).measurements, record_id, extra)
+    return await run_in_threadpool(RecordService(session, principal.tenant_id).measurements, record_id, extra)

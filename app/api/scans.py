@@ -10,18 +10,20 @@ from fastapi.responses import JSONResponse
 from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
+from app.api.auth import authorize
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
-from app.api.problems import problems
+from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
 from app.errors import Unavailable
 from app.jobs.runner import EmbeddedRunner
 from app.services.fitting import parse_options, validate_scan_file
 from app.services.jobs import JobService, job_view
+from app.services.keys import Principal
 from app.services.storage import ScanStore
 from app.services.uploads import MEDIA_TYPES, receive_upload
 from app.settings import Settings
 
-router = APIRouter(prefix="/api/v1", tags=["scans"])
+router = APIRouter(prefix="/api/v1", tags=["scans"], responses=auth_problems())
 
 _SCAN_BODY = {"schema": {"type": "string", "format": "binary"}}
 UPLOAD_BODY = {
@@ -81,6 +83,7 @@ async def upload_scan(
     store: ScanStore = Depends(get_store),
     runner: EmbeddedRunner = Depends(get_runner),
     session: Session = Depends(get_session),
+    principal: Principal = Depends(authorize("upload")),
 ):
     upload = await receive_upload(request.headers, request.stream(), store, settings.max_upload_bytes, file_format)
     try:
@@ -94,7 +97,7 @@ async def upload_scan(
             )
         except asyncio.TimeoutError as exc:
             raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
-        job, scan, reused = await run_in_threadpool(JobService(session).submit, upload, options, store, placement)
+        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
     except BaseException:
         upload.discard()
         raise

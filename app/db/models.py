@@ -1,11 +1,12 @@
-"""ORM models: stored scans (content-addressed), fitting jobs, calf records, designs."""
+"""ORM models: tenants (clinics) and their API keys; stored scans (content-addressed
+within a tenant), fitting jobs, calf records, designs - each owned by one tenant."""
 
 from __future__ import annotations
 
 import uuid
 from datetime import datetime, timezone
 
-from sqlalchemy import JSON, BigInteger, DateTime, Float, ForeignKey, Index, String, Text
+from sqlalchemy import JSON, BigInteger, DateTime, Float, ForeignKey, Index, String, Text, UniqueConstraint
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 from sqlalchemy.types import TypeDecorator
 
@@ -40,17 +41,59 @@ class Base(DeclarativeBase):
     pass
 
 
+#: the tenant that data stored before tenants existed belongs to (migration 0004), and
+#: the one an unauthenticated local service acts as
+DEFAULT_TENANT_ID = "default"
+
+
+class Tenant(Base):
+    """A clinic (or any customer) whose data is kept apart from every other's."""
+
+    __tablename__ = "tenants"
+
+    id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    name: Mapped[str] = mapped_column(String(100), unique=True, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+
+class ApiKey(Base):
+    """An API key of a tenant: only its SHA-256 is stored; ``prefix`` (unique, shown in
+    lists and logs) identifies it; ``scopes`` a space-separated subset of
+    upload, read, design, admin."""
+
+    __tablename__ = "api_keys"
+
+    id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    tenant_id: Mapped[str] = mapped_column(ForeignKey("tenants.id", ondelete="CASCADE"), nullable=False, index=True)
+    prefix: Mapped[str] = mapped_column(String(32), unique=True, nullable=False)
+    secret_sha256: Mapped[str] = mapped_column(String(64), nullable=False)
+    scopes: Mapped[str] = mapped_column(String(100), nullable=False)
+    label: Mapped[str | None] = mapped_column(String(100))
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    expires_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    last_used_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+
+
+def _tenant_column() -> Mapped[str]:
+    return mapped_column(ForeignKey("tenants.id", ondelete="RESTRICT"), nullable=False, default=DEFAULT_TENANT_ID)
+
+
 class Scan(Base):
-    """An uploaded scan file, stored once on disk under its SHA-256."""
+    """An uploaded scan file, stored once per tenant under its SHA-256 (the bytes on disk
+    are shared; the row, and so access to it, is the tenant's)."""
 
     __tablename__ = "scans"
 
     id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
-    sha256: Mapped[str] = mapped_column(String(64), unique=True, nullable=False)
+    tenant_id: Mapped[str] = _tenant_column()
+    sha256: Mapped[str] = mapped_column(String(64), nullable=False)
     size_bytes: Mapped[int] = mapped_column(BigInteger, nullable=False)
     file_format: Mapped[str] = mapped_column(String(16), nullable=False)
     media_type: Mapped[str] = mapped_column(String(100), nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+    __table_args__ = (UniqueConstraint("tenant_id", "sha256", name="uq_scans_tenant_sha256"),)
 
 
 class Job(Base):
@@ -59,6 +102,7 @@ class Job(Base):
     __tablename__ = "jobs"
 
     id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    tenant_id: Mapped[str] = _tenant_column()
     scan_id: Mapped[str] = mapped_column(ForeignKey("scans.id", ondelete="RESTRICT"), nullable=False)
     status: Mapped[str] = mapped_column(String(16), nullable=False, default="queued")
     options: Mapped[dict] = mapped_column(JSON, nullable=False)
@@ -72,7 +116,7 @@ class Job(Base):
     stage_seconds: Mapped[dict | None] = mapped_column(JSON)
     record_id: Mapped[str | None] = mapped_column(ForeignKey("records.id", ondelete="SET NULL"))
 
-    __table_args__ = (Index("ix_jobs_status_created", "status", "created_at"),)
+    __table_args__ = (Index("ix_jobs_status_created", "status", "created_at"), Index("ix_jobs_tenant", "tenant_id"))
 
 
 class Record(Base):
@@ -81,6 +125,7 @@ class Record(Base):
     __tablename__ = "records"
 
     id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    tenant_id: Mapped[str] = _tenant_column()
     scan_id: Mapped[str | None] = mapped_column(ForeignKey("scans.id", ondelete="RESTRICT"))
     source: Mapped[str] = mapped_column(String(16), nullable=False)  # "fit" | "import"
     side: Mapped[str | None] = mapped_column(String(8))
@@ -89,7 +134,7 @@ class Record(Base):
     body: Mapped[dict] = mapped_column(JSON, nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
 
-    __table_args__ = (Index("ix_records_created", "created_at"),)
+    __table_args__ = (Index("ix_records_tenant_created", "tenant_id", "created_at"),)
 
 
 class Design(Base):
@@ -98,10 +143,11 @@ class Design(Base):
     __tablename__ = "designs"
 
     id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    tenant_id: Mapped[str] = _tenant_column()
     record_id: Mapped[str] = mapped_column(ForeignKey("records.id", ondelete="CASCADE"), nullable=False)
     inputs: Mapped[dict] = mapped_column(JSON, nullable=False)
     result: Mapped[dict] = mapped_column(JSON, nullable=False)
     etag: Mapped[str] = mapped_column(String(64), nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
 
-    __table_args__ = (Index("ix_designs_record", "record_id"),)
+    __table_args__ = (Index("ix_designs_record", "record_id"), Index("ix_designs_tenant", "tenant_id"))

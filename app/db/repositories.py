@@ -1,4 +1,9 @@
-"""Repositories: every query of the service lives here (routers and services call these)."""
+"""Repositories: every query of the service lives here (routers and services call these).
+
+Tenant scoping: a repository made with a ``tenant_id`` sees and writes only that
+tenant's rows (another tenant's id reads as absent, so the API answers 404 and never
+reveals that it exists); ``tenant_id=None`` is the job runner's system view, which
+works across tenants and writes each result under its job's tenant."""
 
 from __future__ import annotations
 
@@ -7,7 +12,7 @@ from datetime import datetime
 from sqlalchemy import delete, func, select, text, update
 from sqlalchemy.orm import Session
 
-from app.db.models import Design, Job, Record, Scan, utcnow
+from app.db.models import ApiKey, Design, Job, Record, Scan, Tenant, utcnow
 
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
@@ -17,18 +22,90 @@ def count_rows(session: Session, model) -> int:
     return session.scalar(select(func.count()).select_from(model)) or 0
 
 
-class ScanRepository:
+class _Owned:
+    """A repository of rows owned by a tenant (see the module docstring)."""
+
+    model = None
+
+    def __init__(self, session: Session, tenant_id: str | None = None):
+        self.session = session
+        self.tenant_id = tenant_id
+
+    def _scoped(self, query):
+        return query if self.tenant_id is None else query.where(self.model.tenant_id == self.tenant_id)
+
+    def get(self, row_id: str):
+        row = self.session.get(self.model, row_id)
+        if row is None or (self.tenant_id is not None and row.tenant_id != self.tenant_id):
+            return None
+        return row
+
+    def _owner(self, owner: str | None) -> str:
+        tenant = owner or self.tenant_id
+        if tenant is None:
+            raise ValueError("a row needs its tenant")
+        return tenant
+
+
+class TenantRepository:
     def __init__(self, session: Session):
         self.session = session
 
-    def by_sha256(self, sha256: str) -> Scan | None:
-        return self.session.scalar(select(Scan).where(Scan.sha256 == sha256))
+    def by_name(self, name: str) -> Tenant | None:
+        return self.session.scalar(select(Tenant).where(Tenant.name == name))
 
-    def get(self, scan_id: str) -> Scan | None:
-        return self.session.get(Scan, scan_id)
+    def get(self, tenant_id: str) -> Tenant | None:
+        return self.session.get(Tenant, tenant_id)
+
+    def add(self, name: str) -> Tenant:
+        tenant = Tenant(name=name)
+        self.session.add(tenant)
+        self.session.flush()
+        return tenant
+
+    def all(self) -> list[Tenant]:
+        return list(self.session.scalars(select(Tenant).order_by(Tenant.name)))
+
+
+class ApiKeyRepository:
+    def __init__(self, session: Session):
+        self.session = session
+
+    def add(self, tenant_id: str, prefix: str, secret_sha256: str, scopes: str, label: str | None,
+            expires_at: datetime | None) -> ApiKey:
+        key = ApiKey(tenant_id=tenant_id, prefix=prefix, secret_sha256=secret_sha256, scopes=scopes, label=label,
+                     expires_at=expires_at)
+        self.session.add(key)
+        self.session.flush()
+        return key
+
+    def by_prefix(self, prefix: str) -> ApiKey | None:
+        return self.session.scalar(select(ApiKey).where(ApiKey.prefix == prefix))
+
+    def listing(self, tenant_id: str | None = None) -> list[tuple[ApiKey, str]]:
+        """(key, tenant name) pairs, oldest first; one tenant's or all."""
+        query = select(ApiKey, Tenant.name).join(Tenant, Tenant.id == ApiKey.tenant_id).order_by(ApiKey.created_at)
+        if tenant_id is not None:
+            query = query.where(ApiKey.tenant_id == tenant_id)
+        return [(key, name) for key, name in self.session.execute(query).all()]
+
+    def touch(self, key_id: str, when: datetime) -> None:
+        self.session.execute(update(ApiKey).where(ApiKey.id == key_id).values(last_used_at=when))
+
+    def revoke(self, key: ApiKey, when: datetime) -> None:
+        key.revoked_at = when
+        self.session.flush()
+
+
+class ScanRepository(_Owned):
+    model = Scan
+
+    def by_sha256(self, sha256: str) -> Scan | None:
+        return self.session.scalar(self._scoped(select(Scan).where(Scan.sha256 == sha256)))
 
     def add(self, sha256: str, size_bytes: int, file_format: str, media_type: str) -> Scan:
-        scan = Scan(sha256=sha256, size_bytes=size_bytes, file_format=file_format, media_type=media_type)
+        scan = Scan(tenant_id=self._owner(None), sha256=sha256, size_bytes=size_bytes, file_format=file_format,
+                    media_type=media_type)
         self.session.add(scan)
         self.session.flush()
         return scan
@@ -37,18 +114,14 @@ class ScanRepository:
         return count_rows(self.session, Scan)
 
 
-class JobRepository:
-    def __init__(self, session: Session):
-        self.session = session
+class JobRepository(_Owned):
+    model = Job
 
     def add(self, scan_id: str, options: dict, placement: dict | None = None) -> Job:
-        job = Job(scan_id=scan_id, options=options, placement=placement, status=JOB_QUEUED)
+        job = Job(tenant_id=self._owner(None), scan_id=scan_id, options=options, placement=placement, status=JOB_QUEUED)
         self.session.add(job)
         self.session.flush()
         return job
-
-    def get(self, job_id: str) -> Job | None:
-        return self.session.get(Job, job_id)
 
     def claim_next(self) -> Job | None:
         """Atomically move the oldest queued job to running and return it.
@@ -102,12 +175,13 @@ class JobRepository:
         return count_rows(self.session, Job)
 
 
-class RecordRepository:
-    def __init__(self, session: Session):
-        self.session = session
+class RecordRepository(_Owned):
+    model = Record
 
-    def add(self, body: dict, etag: str, source: str, scan_id: str | None) -> Record:
+    def add(self, body: dict, etag: str, source: str, scan_id: str | None, owner: str | None = None) -> Record:
+        """A new record; ``owner`` is the tenant when the repository has none (the runner)."""
         record = Record(
+            tenant_id=self._owner(owner),
             body=body,
             etag=etag,
             source=source,
@@ -119,12 +193,9 @@ class RecordRepository:
         self.session.flush()
         return record
 
-    def get(self, record_id: str) -> Record | None:
-        return self.session.get(Record, record_id)
-
     def page(self, limit: int, after: tuple[datetime, str] | None) -> list[Record]:
         """Newest first, keyset pagination on (created_at, id)."""
-        query = select(Record).order_by(Record.created_at.desc(), Record.id.desc()).limit(limit)
+        query = self._scoped(select(Record)).order_by(Record.created_at.desc(), Record.id.desc()).limit(limit)
         if after is not None:
             created, record_id = after
             query = query.where(
@@ -143,21 +214,18 @@ class RecordRepository:
         return count_rows(self.session, Record)
 
 
-class DesignRepository:
-    def __init__(self, session: Session):
-        self.session = session
+class DesignRepository(_Owned):
+    model = Design
 
     def add(self, record_id: str, inputs: dict, result: dict, etag: str) -> Design:
-        design = Design(record_id=record_id, inputs=inputs, result=result, etag=etag)
+        design = Design(tenant_id=self._owner(None), record_id=record_id, inputs=inputs, result=result, etag=etag)
         self.session.add(design)
         self.session.flush()
         return design
 
-    def get(self, design_id: str) -> Design | None:
-        return self.session.get(Design, design_id)
-
     def for_record(self, record_id: str) -> list[Design]:
-        return list(self.session.scalars(select(Design).where(Design.record_id == record_id).order_by(Design.created_at)))
+        query = self._scoped(select(Design).where(Design.record_id == record_id)).order_by(Design.created_at)
+        return list(self.session.scalars(query))
 
 
 def ping(session: Session) -> None:

@@ -109,7 +109,7 @@ class EmbeddedRunner:
             jobs = JobRepository(session)
             job = jobs.get(job_id)
             body = outcome["record"]
-            record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id)
+            record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id, owner=job.tenant_id)
             jobs.succeed(job_id, record.id, outcome["stage_seconds"])
 
     def _finish_failure(self, job_id: str, code: str, detail: str) -> None:

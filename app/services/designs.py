@@ -70,10 +70,10 @@ def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
 
 
 class DesignService:
-    def __init__(self, session: Session):
+    def __init__(self, session: Session, tenant_id: str):
         self.session = session
-        self.designs = DesignRepository(session)
-        self.records = RecordService(session)
+        self.designs = DesignRepository(session, tenant_id)
+        self.records = RecordService(session, tenant_id)
 
     def create(self, record_id: str, data: dict) -> Design:
         """Design from a stored record; stores it with its inputs; commits."""

@@ -14,10 +14,12 @@ from app.services.uploads import ReceivedUpload
 
 
 class JobService:
-    def __init__(self, session: Session):
+    """Scans and jobs of one tenant: the same bytes are stored once per tenant."""
+
+    def __init__(self, session: Session, tenant_id: str):
         self.session = session
-        self.scans = ScanRepository(session)
-        self.jobs = JobRepository(session)
+        self.scans = ScanRepository(session, tenant_id)
+        self.jobs = JobRepository(session, tenant_id)
 
     def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore, placement: dict | None = None) -> tuple[Job, Scan, bool]:
         """Store the scan once (content-addressed) and queue a job; commits.

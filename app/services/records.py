@@ -38,9 +38,11 @@ def _parse(body: dict) -> CalfRecord:
 
 
 class RecordService:
-    def __init__(self, session: Session):
+    """Records of one tenant (``tenant_id``): another tenant's ids are not found."""
+
+    def __init__(self, session: Session, tenant_id: str):
         self.session = session
-        self.records = RecordRepository(session)
+        self.records = RecordRepository(session, tenant_id)
 
     def get(self, record_id: str) -> Record:
         record = self.records.get(record_id)
