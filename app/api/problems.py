@@ -10,11 +10,14 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from app.errors import PROBLEM_TYPE_PREFIX, ServiceError, from_fit_failure
 from app.geometry.errors import FitFailure
 
 PROBLEM_MEDIA_TYPE = "application/problem+json"
+#: routes whose body is a document with its own problem code (by route name)
+BODY_PROBLEMS = {"import_record": ("invalid_record", "Invalid calf record")}
 log = logging.getLogger("calf_nurbs.api")
 
 
@@ -59,16 +62,29 @@ def install_problem_handlers(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
     async def invalid_request(request: Request, exc: RequestValidationError):
         errors = [{"loc": list(e.get("loc", ())), "msg": e.get("msg", ""), "type": e.get("type", "")} for e in exc.errors()]
-        detail = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in errors) or "invalid request"
-        return problem_response(request, 422, "invalid_request", "The request is not valid", detail, {"errors": errors})
+        detail = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in errors[:10]) or "invalid request"
+        if len(errors) > 10:
+            detail += f"; and {len(errors) - 10} more"
+        code, title = "invalid_request", "The request is not valid"
+        route = request.scope.get("route")
+        document = errors and all(e["loc"][:1] == ["body"] and e["type"] != "json_invalid" for e in errors)
+        if document and getattr(route, "name", None) in BODY_PROBLEMS:
+            code, title = BODY_PROBLEMS[route.name]
+        return problem_response(request, 422, code, title, detail, {"errors": errors[:50]})
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):
         phrase = HTTPStatus(exc.status_code).phrase
         code = phrase.lower().replace(" ", "_").replace("-", "_")
         detail = exc.detail if isinstance(exc.detail, str) else phrase
+        headers = dict(exc.headers or {})
+        if exc.status_code == 405:
+            # every method of the path (Starlette names only the first route's)
+            allowed = allowed_methods(request)
+            headers["Allow"] = ", ".join(allowed)
+            detail = f"{request.method} is not allowed here; use {' or '.join(allowed)}"
         response = problem_response(request, exc.status_code, code, phrase, detail)
-        for key, value in (exc.headers or {}).items():
+        for key, value in headers.items():
             response.headers[key] = value
         return response
 
@@ -76,6 +92,17 @@ def install_problem_handlers(app: FastAPI) -> None:
     async def unexpected(request: Request, exc: Exception):  # pragma: no cover - a bug
         log.exception("unhandled error on %s %s", request.method, request.url.path)
         return problem_response(request, 500, "internal_error", "Internal server error", "an unexpected error occurred; it has been logged")
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """The methods some route of the app serves at the request's path (each method is
+    tried against the router: included routers hide their routes' methods)."""
+    allowed = []
+    for method in ("GET", "POST", "PUT", "PATCH", "DELETE"):
+        scope = {**request.scope, "method": method}
+        if any(route.matches(scope)[0] is Match.FULL for route in request.app.router.routes):
+            allowed.append(method)
+    return allowed
 
 
 def problems(**statuses: str) -> dict:
@@ -94,8 +121,24 @@ def problems(**statuses: str) -> dict:
 
 
 def add_problem_schema(schema: dict) -> dict:
+    """The Problem schema, and every 422 documented as what it is: FastAPI documents its
+    request validation errors as application/json HTTPValidationError, but this service
+    answers them (like every error) as application/problem+json."""
     components = schema.setdefault("components", {}).setdefault("schemas", {})
     components["Problem"] = Problem.model_json_schema(ref_template="#/components/schemas/{model}")
+    problem = {PROBLEM_MEDIA_TYPE: {"schema": {"$ref": "#/components/schemas/Problem"}}}
+    for operations in schema.get("paths", {}).values():
+        for operation in operations.values():
+            responses = operation.get("responses", {})
+            if "422" in responses:
+                described = responses["422"].get("description", "")
+                if described in ("", "Validation Error"):
+                    described = "invalid_request: a parameter or the body is not valid (the detail names it)"
+                elif "invalid_request" not in described:
+                    described += "; invalid_request: a parameter or the body is not valid"
+                responses["422"] = {"description": described, "content": problem}
+    for name in ("HTTPValidationError", "ValidationError"):
+        components.pop(name, None)
     return schema
 
 

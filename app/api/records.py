@@ -11,10 +11,10 @@ from sqlalchemy.orm import Session
 from app.api.auth import authorize
 from app.api.deps import get_session
 from app.api.problems import auth_problems, problems
-from app.api.schemas import MeasurementsOut, RecordOut, RecordPage
+from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage
 from app.errors import NotAcceptable, Unprocessable
 from app.services.keys import Principal
-from app.services.records import SURFACE_MEDIA_TYPES, RecordService, surface_etag
+from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
 
 router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 
@@ -65,10 +65,10 @@ def get_record(record_id: str, session: Session = Depends(get_session), principa
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
                         **problems(s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
-def import_record(data: dict = Body(..., description="a calf record (schema_version 1 or 2, see CalfRecordBody)"),
+def import_record(data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
                   session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
     service = RecordService(session, principal.tenant_id)
-    record = service.import_record(data)
+    record = service.import_record(data.model_dump(exclude_none=True))
     session.commit()
     return JSONResponse(jsonable_encoder(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
 
@@ -129,8 +129,9 @@ async def get_surface(
     record_id: str,
     request: Request,
     file_format: str | None = Query(None, alias="format", description="stl | glb | gltf (overrides Accept)"),
-    around: int = Query(144, description="samples around the leg (8-1440)"),
-    along: int = Query(100, description="samples along the leg (2-2000)"),
+    around: int = Query(144, ge=AROUND_RANGE[0], le=AROUND_RANGE[1], description="samples around the leg"),
+    along: int = Query(100, ge=ALONG_RANGE[0], le=ALONG_RANGE[1],
+                       description=f"samples along the leg; around x along at most {MAX_SURFACE_SAMPLES}"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):

@@ -3,15 +3,25 @@
 from __future__ import annotations
 
 from datetime import datetime
+from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.geometry.record import MAX_CONTROL_MM, MAX_NET
+
+#: a control point's coordinate, mm (calf frame); a weight; a knot
+Coordinate = Annotated[float, Field(ge=-MAX_CONTROL_MM, le=MAX_CONTROL_MM)]
+Weight = Annotated[float, Field(gt=0, le=1e6)]
+Knot = Annotated[float, Field(ge=-1e6, le=1e6)]
+Point3 = Annotated[list[Coordinate], Field(min_length=3, max_length=3)]
+
 
 class Landmark(BaseModel):
-    height_mm: float = Field(description="calf-frame z; B is 0")
-    circumference_mm: float = Field(description="perimeter of the scan's section at this height")
+    model_config = ConfigDict(allow_inf_nan=False)
+    height_mm: float = Field(ge=-MAX_CONTROL_MM, le=MAX_CONTROL_MM, description="calf-frame z; B is 0")
+    circumference_mm: float = Field(gt=0, le=10 * MAX_CONTROL_MM, description="perimeter of the scan's section at this height")
     tape_girth_mm: float | None = Field(
-        None, description="perimeter of its convex hull: what a tape measure, ANSUR and the hosiery standards "
+        None, gt=0, le=10 * MAX_CONTROL_MM, description="perimeter of its convex hull: what a tape measure, ANSUR and the hosiery standards "
         "read (record version 2; absent in version 1)")
     at_scan_edge: bool = Field(
         False, description="B or D was taken at the scan's edge (the scan starts at the ankle minimum or ends "
@@ -26,28 +36,36 @@ class SideInference(BaseModel):
 
 
 class Surface(BaseModel):
-    degree_u: int
-    degree_v: int
-    knots_u: list[float] = Field(description="nu + degree_u + 1 knots; u runs around the leg")
-    knots_v: list[float] = Field(description="nv + degree_v + 1 knots; v runs from B to D")
-    control_points: list[list[list[float]]] = Field(description="[nu][nv][3], mm, calf frame")
-    weights: list[list[float]] = Field(description="[nu][nv], all > 0")
-    periodic_u: bool = Field(description="closed around the leg: the first degree_u control columns repeat at the end")
+    """A NURBS tube closed around the leg (checked: its two u ends coincide)."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
+    degree_u: int = Field(ge=1, le=5)
+    degree_v: int = Field(ge=1, le=5)
+    knots_u: list[Knot] = Field(min_length=4, max_length=MAX_NET + 6, description="nu + degree_u + 1 knots; u runs around the leg")
+    knots_v: list[Knot] = Field(min_length=4, max_length=MAX_NET + 6, description="nv + degree_v + 1 knots; v runs from B to D")
+    control_points: list[Annotated[list[Point3], Field(min_length=2, max_length=MAX_NET)]] = Field(
+        min_length=2, max_length=MAX_NET, description="[nu][nv][3], mm, calf frame")
+    weights: list[Annotated[list[Weight], Field(min_length=2, max_length=MAX_NET)]] = Field(
+        min_length=2, max_length=MAX_NET, description="[nu][nv], all > 0")
+    periodic_u: bool = Field(description="closed around the leg: the first degree_u control columns repeat at the end; "
+                             "false: a clamped u whose first and last control columns coincide")
 
 
 class CalfRecordBody(BaseModel):
     """A calf record (see app.geometry.record for every field)."""
 
-    model_config = ConfigDict(extra="allow")
-    schema_version: int = Field(2, description="1 or 2; version 2 adds tape girths, warnings and side_inference")
-    units: str = "mm"
-    side: str | None = None
+    model_config = ConfigDict(extra="allow", allow_inf_nan=False)
+    schema_version: Literal[1, 2] = Field(2, description="1 or 2; version 2 adds tape girths, warnings and side_inference")
+    units: Literal["mm"] = "mm"
+    side: Literal["left", "right"] | None = None
     side_inference: SideInference | None = None
     warnings: list[str] = Field(default_factory=list, description="what the fit noticed about the scan, in words: "
                                 "landmarks at its edge, a floor or spikes removed, pieces ignored, a bent knee")
     surface: Surface
-    frame: list[list[float]] = Field(description="4x4: calf-frame mm -> the scan's own coordinates and units")
-    landmarks: dict[str, Landmark] = Field(default_factory=dict)
+    frame: Annotated[list[Annotated[list[Annotated[float, Field(ge=-1e7, le=1e7)]], Field(min_length=4, max_length=4)]],
+                     Field(min_length=4, max_length=4)] = Field(
+        description="4x4: calf-frame mm -> the scan's own coordinates and units")
+    landmarks: dict[Literal["B", "B1", "C", "D"], Landmark] = Field(default_factory=dict)
     fit: dict = Field(default_factory=dict)
 
 

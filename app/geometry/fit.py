@@ -207,7 +207,10 @@ def fit_calf(
     try:
         surface = surface_from_layers(layer_points, mode=options.mode)
     except (ValueError, np.linalg.LinAlgError) as exc:
-        raise FitFailure(FailureReason.DEGENERATE_SURFACE, f"the feature grid cannot be interpolated: {exc}") from exc
+        raise FitFailure(
+            FailureReason.DEGENERATE_SURFACE,
+            "the feature points cannot be interpolated (two of them coincide or a layer folds over itself)",
+        ) from exc
     lap("nurbs")
 
     in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))

@@ -41,10 +41,17 @@ import numpy as np
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit import FitResult
 from app.geometry.landmarks import LANDMARK_NAMES
-from app.geometry.nurbs import NurbsSurface
+from app.geometry.nurbs import NurbsSurface, evaluate_grid
 
 SCHEMA_VERSION = 2
 READABLE_VERSIONS = (1, 2)
+#: bounds of an importable record: a calf in its own frame (B at the origin, z along
+#: the leg) lies within a few hundred mm of the origin; these leave room for a whole
+#: leg and refuse numbers that would make every export and measurement run away
+MAX_CONTROL_MM = 2000.0
+MAX_NET = 256
+#: the surface must close around the leg to this tolerance (mm)
+CLOSURE_TOL_MM = 1e-3
 
 
 @dataclass(frozen=True)
@@ -159,6 +166,25 @@ def _finite_array(value, name: str, ndim: int) -> np.ndarray:
     return array
 
 
+def _check_closed_around(surface: NurbsSurface) -> None:
+    """The surface contract: a tube closed around the leg (u), whether written periodic
+    (``periodic_u``, repeated control columns) or clamped with equal first and last
+    columns.  The exports, girths and pressure maps join u's two ends; an open sheet
+    would get a seam across the leg.  Checked where it matters: the curves u = start
+    and u = end at 33 heights must coincide within :data:`CLOSURE_TOL_MM`."""
+    (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
+    ends = np.array([surface.knots_u[p], surface.knots_u[nu]])
+    v = np.linspace(surface.knots_v[q], surface.knots_v[nv], 33)
+    with np.errstate(all="ignore"):
+        points = evaluate_grid(surface, ends, v)
+    gap = float(np.linalg.norm(points[0] - points[1], axis=-1).max())
+    if not np.isfinite(gap) or gap > CLOSURE_TOL_MM:
+        raise _invalid(
+            f"the surface is not closed around the leg: its two u ends are up to {gap:.3g} mm apart. A calf record "
+            "is a tube: periodic_u with the first degree_u control columns repeated at the end, or a clamped u "
+            "whose first and last control columns coincide")
+
+
 def parse_record(data: dict) -> CalfRecord:
     """Validate a record dictionary (knots, shapes, weights, finiteness) and build it."""
     if not isinstance(data, dict):
@@ -184,6 +210,12 @@ def parse_record(data: dict) -> CalfRecord:
     nu, nv, dim = ctrl.shape
     if dim != 3:
         raise _invalid("control points must have 3 coordinates")
+    if nu > MAX_NET or nv > MAX_NET:
+        raise _invalid(f"the control net is {nu} x {nv}; at most {MAX_NET} x {MAX_NET} is accepted")
+    if np.abs(ctrl).max() > MAX_CONTROL_MM:
+        raise _invalid(
+            f"control points reach {np.abs(ctrl).max():.3g} mm from the calf frame's origin; a calf record's lie "
+            f"within {MAX_CONTROL_MM:g} mm (mm, in the calf frame: B at the origin, z along the leg)")
     if nu <= p or nv <= q:
         raise _invalid(f"need more than degree control points in each direction, got {nu} x {nv}")
     if weights.shape != (nu, nv):
@@ -200,6 +232,8 @@ def parse_record(data: dict) -> CalfRecord:
     periodic = bool(surf.get("periodic_u", False))
     if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
         raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
+    surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    _check_closed_around(surface)
     frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)
     if frame.shape != (4, 4) or not np.allclose(frame[3], [0, 0, 0, 1]):
         raise _invalid("frame must be a 4x4 homogeneous matrix with last row 0 0 0 1")
@@ -239,7 +273,6 @@ def parse_record(data: dict) -> CalfRecord:
     side_inference = data.get("side_inference")
     if side_inference is not None and not isinstance(side_inference, dict):
         raise _invalid("side_inference must be an object or null")
-    surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
     return CalfRecord(
         schema_version=int(version),
         warnings=tuple(warnings),

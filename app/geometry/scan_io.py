@@ -120,7 +120,8 @@ def _read_text_cloud(data: bytes) -> np.ndarray:
         table = np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2)
     except ValueError as exc:
         raise FitFailure(
-            FailureReason.UNREADABLE_FILE, f"point cloud rows are not all numbers: {exc}"
+            FailureReason.UNREADABLE_FILE,
+            "point cloud rows are not all numbers: each row must be x y z (spaces, commas, tabs or semicolons between)",
         ) from exc
     if table.shape[1] < 3:
         raise FitFailure(
@@ -185,16 +186,42 @@ def check_stl_integrity(data: bytes) -> None:
     )
 
 
+def _is_binary_stl(data: bytes) -> bool:
+    return len(data) >= 84 and len(data) == 84 + 50 * int(np.frombuffer(data[80:84], dtype="<u4")[0])
+
+
+def _ascii_text(data: bytes, fmt: str) -> bytes:
+    """Text formats (ASCII STL, OBJ, OFF) with bytes that are not UTF-8 - a solid or
+    group name in Latin-1 or another code page - get those bytes replaced by '?'.
+    Only names and comments can hold them (numbers and keywords are ASCII), so the
+    geometry is unchanged, and no guess at the code page is needed."""
+    if fmt not in ("stl", "obj", "off") or (fmt == "stl" and _is_binary_stl(data)):
+        return data
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError:
+        return _replace_high_bytes(data)
+    return data
+
+
+def _replace_high_bytes(data: bytes) -> bytes:
+    array = np.frombuffer(data, dtype=np.uint8).copy()
+    array[array >= 0x80] = 0x3F
+    return array.tobytes()
+
+
 def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | None]:
     trimesh_type = "stl" if fmt == "stl" else fmt
+    data = _ascii_text(data, fmt)
     try:
         # no trimesh processing: exact duplicate corners are merged below (3x faster);
         # nothing else is needed by the slicer, which takes any triangle soup
         geometry = trimesh.load(io.BytesIO(data), file_type=trimesh_type, process=False)
     except Exception as exc:  # trimesh raises many kinds for corrupt files
+        # (the library's own message names its internals, not the file's fault)
         raise FitFailure(
             FailureReason.UNREADABLE_FILE,
-            f"the file could not be read as {fmt.upper()}: {type(exc).__name__}: {exc}",
+            f"the file could not be read as {fmt.upper()}: it is corrupt, or not {fmt.upper()}",
         ) from exc
     if isinstance(geometry, trimesh.Scene):
         meshes = [g for g in geometry.dump() if isinstance(g, trimesh.Trimesh)]
@@ -259,7 +286,7 @@ def load_scan(
             with open(name, "rb") as handle:
                 data = handle.read()
         except OSError as exc:
-            raise FitFailure(FailureReason.UNREADABLE_FILE, f"cannot open {name}: {exc}") from exc
+            raise FitFailure(FailureReason.UNREADABLE_FILE, "the scan file cannot be opened (missing or unreadable)") from exc
     fmt = _format_of(name, file_type)
     if units is not None and units not in UNIT_SCALE_MM:
         raise FitFailure(

@@ -156,7 +156,8 @@ class EmbeddedRunner:
             raise  # shutting down: the job stays running and is requeued at the next start
         except Exception as exc:  # a bug: record it on the job rather than lose it
             log.exception("job %s failed unexpectedly", job_id)
-            await asyncio.to_thread(self._finish_failure, job_id, "internal_error", f"{type(exc).__name__}: {exc}")
+            await asyncio.to_thread(self._finish_failure, job_id, "internal_error",
+                                    "the fit failed on an unexpected error; it has been logged for the service's operators")
         else:
             await asyncio.to_thread(self._finish_success, job_id, outcome)
 

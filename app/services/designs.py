@@ -85,7 +85,8 @@ class DesignService:
         except FitFailure as failure:
             raise from_fit_failure(failure) from failure
         except (TypeError, ValueError) as exc:
-            raise from_fit_failure(FitFailure(FailureReason.INVALID_TARGET, f"invalid design input: {exc}")) from exc
+            raise from_fit_failure(FitFailure(
+                FailureReason.INVALID_TARGET, "invalid design input: a fabric or target value is not a number in range")) from exc
         stored_inputs = inputs_as_dict(inputs)
         etag = hashlib.sha256(json.dumps([row.etag, stored_inputs], sort_keys=True).encode()).hexdigest()
         design = self.designs.add(record_id, stored_inputs, result, etag)

@@ -147,17 +147,21 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
         state["value"] += data[start:end]
 
     def on_header_end():
-        state["headers"][state["field"].decode("latin-1").lower()] = state["value"].decode("utf-8", "replace")
+        # header values stay bytes: browsers and curl send UTF-8 file and field names,
+        # which a str round trip through Latin-1 cannot carry
+        state["headers"][state["field"].decode("latin-1").lower()] = bytes(state["value"])
         state["field"], state["value"] = b"", b""
 
     def on_headers_finished():
-        _, disposition = parse_options_header(state["headers"].get("content-disposition", ""))
+        _, disposition = parse_options_header(state["headers"].get("content-disposition", b""))
         name = disposition.get(b"name", b"").decode("utf-8", "replace")
         filename = disposition.get(b"filename")
         state["name"] = name
+        if filename is not None and name != "file":
+            raise BadRequest(f"the scan must be sent in the form field named 'file', not {name!r}")
         if name == "file":
             writer = _HashingWriter(store)
-            ctype = parse_options_header(state["headers"].get("content-type", ""))[0].decode("latin-1").lower()
+            ctype = parse_options_header(state["headers"].get("content-type", b""))[0].decode("latin-1").lower()
             files.append((writer, filename.decode("utf-8", "replace") if filename else None, ctype))
             current["writer"], current["buffer"] = writer, None
         else:
@@ -200,7 +204,7 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
     except MultipartParseError as exc:
         for writer, _, _ in files:
             writer.abort()
-        raise BadRequest(f"malformed multipart body: {exc}") from exc
+        raise BadRequest("malformed multipart body: its parts do not follow the boundary declared in Content-Type") from exc
     except BaseException:
         for writer, _, _ in files:
             writer.abort()

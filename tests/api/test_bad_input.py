@@ -115,12 +115,24 @@ def _record(client) -> dict:
     return body
 
 
+def _open_sheet(surface: dict) -> None:
+    """The record's tube with its repeated closing columns dropped: an open sheet
+    (clamped in u) that still claims nothing about closure."""
+    p = surface["degree_u"]
+    surface["periodic_u"] = False
+    del surface["control_points"][-p:], surface["weights"][-p:]
+    n = len(surface["control_points"])
+    surface["knots_u"] = [0.0] * (p + 1) + [i / (n - p) for i in range(1, n - p)] + [1.0] * (p + 1)
+
+
 @pytest.mark.parametrize(
     "mutate,words",
     [
         (lambda r: r["surface"]["knots_u"].pop(), "knots_u"),
         (lambda r: r["surface"]["knots_v"].reverse(), "non-decreasing"),
-        (lambda r: r["surface"]["weights"][0].__setitem__(0, 0.0), "positive"),
+        (lambda r: r["surface"]["weights"][0].__setitem__(0, 0.0), "weights"),
+        (lambda r: r["surface"]["control_points"][0][0].__setitem__(0, 1e12), "control_points"),
+        (lambda r: _open_sheet(r["surface"]), "not closed around the leg"),
         (lambda r: r["surface"].__setitem__("control_points", [[1, 2, 3]]), "control_points"),
         (lambda r: r.__setitem__("schema_version", 99), "schema_version"),
     ],

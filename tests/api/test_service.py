@@ -100,7 +100,8 @@ def test_surface_negotiation_etag_and_formats(client, fitted_records):
     assert client.get(url, params={"format": "glb"}, headers={"Accept": "text/html"}).headers["content-type"] == "model/gltf-binary"
     refused = client.get(url, headers={"Accept": "text/html"})
     assert refused.status_code == 406 and refused.headers["content-type"] == "application/problem+json"
-    assert client.get(url, params={"around": 3}).json()["code"] == "invalid_density"
+    assert client.get(url, params={"around": 3}).json()["code"] == "invalid_request"  # the documented bounds
+    assert client.get(url, params={"around": 720, "along": 1000}).json()["code"] == "invalid_density"
     # a different density is a different representation
     assert client.get(url, params={"along": 50}, headers={"Accept": "model/gltf+json"}).headers["etag"] != etag
 
@@ -214,4 +215,5 @@ def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
         job = wait_for_job(running, response.headers["location"])
     assert job["status"] == "failed" and job["record_id"] is None
     assert job["error"]["code"] == "unreadable_file" and job["error"]["type"].endswith(":unreadable_file")
-    assert "cannot open" in job["error"]["detail"] and job["finished_at"]
+    assert "cannot be opened" in job["error"]["detail"] and job["finished_at"]
+    assert str(tmp_path) not in job["error"]["detail"] and sha not in job["error"]["detail"]  # no server path
