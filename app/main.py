@@ -6,6 +6,7 @@ import logging
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
 
 from app import __version__
@@ -54,6 +55,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan)
     install_problem_handlers(app)
+    if settings.cors_origins:
+        # browsers of the listed origins only (a clinic's portal); the headers a client
+        # needs to read: the record's ETag, a job's Location, a 429's Retry-After
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=settings.cors_origins,
+            allow_methods=["GET", "POST", "DELETE"],
+            allow_headers=["Authorization", "X-API-Key", "Content-Type", "Idempotency-Key", "If-None-Match", "Accept"],
+            expose_headers=["ETag", "Location", "Retry-After", "X-Request-ID"],
+            max_age=600,
+        )
     for module in (scans, jobs, records, designs, health):
         app.include_router(module.router)
 

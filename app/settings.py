@@ -23,8 +23,13 @@ class Settings(BaseSettings):
                          postgresql+psycopg://...
     CALF_WORKERS         fitting worker processes of the embedded runner (2)
     CALF_MAX_UPLOAD_MB   largest scan accepted, counted on the bytes received (200)
+    CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES
+                         most points / triangles in an accepted scan (4M / 4M: a whole
+                         body at 1 mm holds ~2M; a calf needs ~50k)
     CALF_RUN_JOBS        false: this process accepts uploads but fits nothing (an API
                          container whose jobs a `calf-nurbs worker` process runs)
+    CALF_CORS_ORIGINS    JSON list of the web origins allowed to call the API from a
+                         browser, e.g. ["https://portal.clinic.example"] (none)
     CALF_HOST            the address the service is bound to (set by `calf-nurbs serve`)
     CALF_AUTH            required | off.  Default: required, unless the service is bound
                          to localhost (127.0.0.1, ::1, localhost), where it is off and
@@ -38,10 +43,13 @@ class Settings(BaseSettings):
     database_url: str | None = None
     workers: int = Field(2, ge=1, le=64)
     max_upload_mb: float = Field(200.0, gt=0)
+    max_scan_points: int = Field(4_000_000, ge=1000)
+    max_scan_faces: int = Field(4_000_000, ge=1000)
     run_jobs: bool = True
     validation_timeout_s: float = Field(60.0, gt=0)
     job_timeout_s: float = Field(600.0, gt=0)
     host: str = "127.0.0.1"
+    cors_origins: list[str] = Field(default_factory=list)
     auth: Literal["required", "off"] | None = None
 
     @property

@@ -65,7 +65,8 @@ UPLOAD_BODY = {
             s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB",
             s415="unsupported_media_type / unsupported_format",
             s422="the scan cannot be fitted, with the reason: unreadable_file, truncated_file, empty_scan, "
-            "non_finite_coordinates, too_few_points, implausible_size, not_a_leg, no_calf (no calf bulge), "
+            "non_finite_coordinates, too_few_points, scan_too_large (more points or triangles than "
+            "CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES), implausible_size, not_a_leg, no_calf (no calf bulge), "
             "no_ankle / no_knee (the ankle or the knee waist is not in the scan: the detail says how far the "
             "scan reaches and what a re-scan must include), several_legs (the detail lists the legs found; "
             "pass side), side_not_found, invalid_option",
@@ -93,7 +94,8 @@ async def upload_scan(
             # the quick acceptance check runs in a worker process: reading the file and
             # finding the calf (ankle, calf, knee); nothing is stored if it fails
             placement = await runner.run_in_worker(
-                validate_scan_file, str(upload.temp_path), upload.file_format, options, timeout=settings.validation_timeout_s
+                validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
+                settings.max_scan_faces, timeout=settings.validation_timeout_s
             )
         except asyncio.TimeoutError as exc:
             raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc

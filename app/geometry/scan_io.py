@@ -186,6 +186,15 @@ def check_stl_integrity(data: bytes) -> None:
     )
 
 
+def _check_size(what: str, count: int, limit: int) -> None:
+    if count > limit:
+        raise FitFailure(
+            FailureReason.SCAN_TOO_LARGE,
+            f"the scan has {count} {what}; this service accepts at most {limit}. A calf needs far fewer: "
+            "decimate the mesh or subsample the cloud (1-2 mm spacing is plenty) and upload it again",
+        )
+
+
 def _is_binary_stl(data: bytes) -> bool:
     return len(data) >= 84 and len(data) == 84 + 50 * int(np.frombuffer(data[80:84], dtype="<u4")[0])
 
@@ -259,6 +268,8 @@ def load_scan(
     *,
     file_type: str | None = None,
     units: str | None = None,
+    max_points: int | None = None,
+    max_faces: int | None = None,
 ) -> Scan:
     """Read a scan file (path or bytes) into a :class:`Scan` in millimetres.
 
@@ -295,12 +306,19 @@ def load_scan(
     if not data.strip():
         raise FitFailure(FailureReason.EMPTY_SCAN, "the file is empty")
 
+    if fmt == "stl" and max_faces is not None and _is_binary_stl(data):
+        # a binary STL says how many triangles it holds before any is read
+        _check_size("triangles", int(np.frombuffer(data[80:84], dtype="<u4")[0]), max_faces)
     if fmt in ("xyz", "csv", "txt"):
         points, faces = _read_text_cloud(data), None
     else:
         if fmt == "stl":
             check_stl_integrity(data)
         points, faces = _read_with_trimesh(data, fmt)
+    if max_points is not None:
+        _check_size("points", len(points), max_points)
+    if max_faces is not None and faces is not None:
+        _check_size("triangles", len(faces), max_faces)
 
     if points.size == 0:
         raise FitFailure(FailureReason.EMPTY_SCAN, "the scan has no points")

@@ -44,10 +44,11 @@ def fit_options(options: dict) -> FitOptions:
     return FitOptions(side=options.get("side"), points_per_layer=int(options.get("points", DEFAULT_POINTS)))
 
 
-def validate_scan_file(path: str, file_format: str, options: dict) -> dict:
-    """Worker: read the scan and place its calf; raises FitFailure with the reason.
-    Returns the placement, JSON."""
-    scan = load_scan(path, file_type=file_format, units=options.get("units"))
+def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
+                       max_faces: int | None = None) -> dict:
+    """Worker: read the scan and place its calf; raises FitFailure with the reason
+    (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement, JSON."""
+    scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points, max_faces=max_faces)
     return check_scan(scan, fit_options(options))
 
 

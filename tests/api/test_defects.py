@@ -111,3 +111,40 @@ def test_a_file_the_fit_cannot_read_gives_words_not_library_errors(client):
     garbage = b"solid x\nfacet normal a b c\nouter loop\nvertex 1 2\nendsolid"
     response = client.post("/api/v1/scans", content=garbage, headers={"Content-Type": "model/stl"})
     _problem(response, 422)
+
+
+def test_a_scan_with_more_triangles_than_the_limit_is_refused(tmp_path):
+    from fastapi.testclient import TestClient
+
+    from app.db.migrate import upgrade_to_head
+    from tests.api.conftest import make_settings
+
+    settings = make_settings(tmp_path, max_scan_faces=5000, max_scan_points=100_000)
+    upgrade_to_head(settings.resolved_database_url)
+    with TestClient(create_app(settings)) as small:
+        response = small.post("/api/v1/scans", content=LEG.read_bytes(), headers={"Content-Type": "model/stl"})
+        body = _problem(response, 422, "scan_too_large")
+        assert "at most 5000" in body["detail"]
+        cloud = "\n".join(f"{i % 97} {i % 89} {i * 0.003:.3f}" for i in range(100_001)).encode()
+        _problem(small.post("/api/v1/scans", content=cloud, headers={"Content-Type": "text/x-xyz"}), 422, "scan_too_large")
+
+
+def test_cors_allows_only_the_configured_origins(tmp_path):
+    from fastapi.testclient import TestClient
+
+    from app.db.migrate import upgrade_to_head
+    from tests.api.conftest import make_settings
+
+    settings = make_settings(tmp_path, cors_origins=["https://portal.clinic.example"])
+    upgrade_to_head(settings.resolved_database_url)
+    with TestClient(create_app(settings)) as app_client:
+        allowed = app_client.get("/api/v1/records", headers={"Origin": "https://portal.clinic.example"})
+        assert allowed.headers["access-control-allow-origin"] == "https://portal.clinic.example"
+        exposed = allowed.headers["access-control-expose-headers"].lower()
+        assert all(h in exposed for h in ("etag", "location", "retry-after"))
+        other = app_client.get("/api/v1/records", headers={"Origin": "https://evil.example"})
+        assert "access-control-allow-origin" not in other.headers
+        preflight = app_client.options("/api/v1/scans", headers={
+            "Origin": "https://portal.clinic.example", "Access-Control-Request-Method": "POST",
+            "Access-Control-Request-Headers": "authorization, content-type"})
+        assert preflight.status_code == 200 and "authorization" in preflight.headers["access-control-allow-headers"].lower()
