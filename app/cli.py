@@ -87,10 +87,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
+    import os
+
     from app.db.migrate import upgrade_to_head
     from app.settings import get_settings
-
-    import os
 
     # the bound address decides whether auth is required by default (CALF_AUTH)
     os.environ["CALF_HOST"] = args.host

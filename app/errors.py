@@ -12,6 +12,8 @@ class ServiceError(Exception):
     status: int = 400
     code: str = "bad_request"
     title: str = "Bad request"
+    #: response headers every error of the class carries
+    headers: dict = {}
 
     def __init__(self, detail: str, *, code: str | None = None, title: str | None = None, extra: dict | None = None):
         super().__init__(detail)
@@ -35,6 +37,7 @@ class Unauthorized(ServiceError):
     """401: no valid API key (the response carries WWW-Authenticate)."""
 
     status, code, title = 401, "unauthorized", "An API key is needed"
+    headers = {"WWW-Authenticate": 'Bearer realm="calf-nurbs"'}
 
 
 class Forbidden(ServiceError):

@@ -9,8 +9,11 @@ CALF_AUTH=off) every request acts for the tenant "default" with every scope.
 
 from __future__ import annotations
 
-from fastapi import Request, Security
+from fastapi import Depends, Request, Security
 from fastapi.security import APIKeyHeader, HTTPAuthorizationCredentials, HTTPBearer
+from sqlalchemy.orm import Session
+
+from app.api.deps import get_session
 
 from app.errors import Forbidden, Unauthorized
 from app.services.keys import LOCAL_PRINCIPAL, KeyService, Principal
@@ -26,6 +29,7 @@ def authorize(*scopes: str):
         request: Request,
         credentials: HTTPAuthorizationCredentials | None = Security(bearer_scheme),
         header_key: str | None = Security(header_scheme),
+        session: Session = Depends(get_session),  # the request's own session (one per request)
     ) -> Principal:
         if not request.app.state.settings.auth_required:
             principal = LOCAL_PRINCIPAL
@@ -37,15 +41,13 @@ def authorize(*scopes: str):
                     "or 'X-API-Key: <key>'",
                     code="missing_key",
                 )
-            with request.app.state.sessions() as session:
-                principal = KeyService(session).authenticate(presented)
+            principal = KeyService(session).authenticate(presented)
         if not any(principal.allows(scope) for scope in scopes):
             raise Forbidden(
                 f"this API key may not do this: it needs the scope {' or '.join(scopes)}, and has "
                 f"{', '.join(sorted(principal.scopes)) or 'none'}",
                 code="insufficient_scope",
             )
-        request.state.principal = principal
         return principal
 
     return dependency

@@ -50,8 +50,7 @@ def install_problem_handlers(app: FastAPI) -> None:
     @app.exception_handler(ServiceError)
     async def service_error(request: Request, exc: ServiceError):
         response = problem_response(request, exc.status, exc.code, exc.title, exc.detail, exc.extra)
-        if exc.status == 401:
-            response.headers["WWW-Authenticate"] = 'Bearer realm="calf-nurbs"'
+        response.headers.update(exc.headers)
         return response
 
     @app.exception_handler(FitFailure)

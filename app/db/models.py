@@ -64,7 +64,7 @@ class ApiKey(Base):
     __tablename__ = "api_keys"
 
     id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
-    tenant_id: Mapped[str] = mapped_column(ForeignKey("tenants.id", ondelete="CASCADE"), nullable=False, index=True)
+    tenant_id: Mapped[str] = mapped_column(ForeignKey("tenants.id", ondelete="CASCADE"), nullable=False)
     prefix: Mapped[str] = mapped_column(String(32), unique=True, nullable=False)
     secret_sha256: Mapped[str] = mapped_column(String(64), nullable=False)
     scopes: Mapped[str] = mapped_column(String(100), nullable=False)
@@ -73,6 +73,8 @@ class ApiKey(Base):
     expires_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
     revoked_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
     last_used_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+
+    __table_args__ = (Index("ix_api_keys_tenant", "tenant_id"),)
 
 
 def _tenant_column() -> Mapped[str]:

@@ -162,11 +162,8 @@ def check_stl_integrity(data: bytes) -> None:
     Binary STL: 80-byte header, uint32 triangle count n, then exactly 50 * n bytes.
     ASCII STL: starts with ``solid`` and ends with ``endsolid``.
     """
-    if len(data) >= 84:
-        count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
-        expected = 84 + 50 * count
-        if len(data) == expected:
-            return  # a well-formed binary STL (even if its header says "solid")
+    if _binary_stl_count(data) is not None:
+        return  # a well-formed binary STL (even if its header says "solid")
     head = data[:512].lstrip().lower()
     if head.startswith(b"solid") and b"facet" in data[:4096].lower():
         if not data.rstrip().lower().split(b"\n")[-1].strip().startswith(b"endsolid"):
@@ -174,6 +171,8 @@ def check_stl_integrity(data: bytes) -> None:
         return
     if len(data) < 84:
         raise FitFailure(FailureReason.TRUNCATED_FILE, f"the STL is {len(data)} bytes, shorter than a binary STL header (84)")
+    count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
+    expected = 84 + 50 * count
     if len(data) < expected:
         raise FitFailure(
             FailureReason.TRUNCATED_FILE,
@@ -195,25 +194,22 @@ def _check_size(what: str, count: int, limit: int) -> None:
         )
 
 
-def _is_binary_stl(data: bytes) -> bool:
-    return len(data) >= 84 and len(data) == 84 + 50 * int(np.frombuffer(data[80:84], dtype="<u4")[0])
+def _binary_stl_count(data: bytes) -> int | None:
+    """The triangle count of a well-formed binary STL (80-byte header, uint32 n, then
+    exactly 50 n bytes), or None when ``data`` is not one (even if it says "solid")."""
+    if len(data) < 84:
+        return None
+    count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
+    return count if len(data) == 84 + 50 * count else None
 
 
 def _ascii_text(data: bytes, fmt: str) -> bytes:
-    """Text formats (ASCII STL, OBJ, OFF) with bytes that are not UTF-8 - a solid or
-    group name in Latin-1 or another code page - get those bytes replaced by '?'.
+    """Text formats (ASCII STL, OBJ, OFF) with bytes beyond ASCII - a solid or group
+    name in Latin-1, UTF-8 or another code page - get those bytes replaced by '?'.
     Only names and comments can hold them (numbers and keywords are ASCII), so the
     geometry is unchanged, and no guess at the code page is needed."""
-    if fmt not in ("stl", "obj", "off") or (fmt == "stl" and _is_binary_stl(data)):
+    if fmt not in ("stl", "obj", "off") or data.isascii() or (fmt == "stl" and _binary_stl_count(data) is not None):
         return data
-    try:
-        data.decode("utf-8")
-    except UnicodeDecodeError:
-        return _replace_high_bytes(data)
-    return data
-
-
-def _replace_high_bytes(data: bytes) -> bytes:
     array = np.frombuffer(data, dtype=np.uint8).copy()
     array[array >= 0x80] = 0x3F
     return array.tobytes()
@@ -306,9 +302,10 @@ def load_scan(
     if not data.strip():
         raise FitFailure(FailureReason.EMPTY_SCAN, "the file is empty")
 
-    if fmt == "stl" and max_faces is not None and _is_binary_stl(data):
+    announced = _binary_stl_count(data) if fmt == "stl" else None
+    if max_faces is not None and announced is not None:
         # a binary STL says how many triangles it holds before any is read
-        _check_size("triangles", int(np.frombuffer(data[80:84], dtype="<u4")[0]), max_faces)
+        _check_size("triangles", announced, max_faces)
     if fmt in ("xyz", "csv", "txt"):
         points, faces = _read_text_cloud(data), None
     else:
