@@ -1,0 +1,61 @@
+"""Scan clean-up on a real leg: a scanner platform sampled as a point cloud is removed."""
+
+import numpy as np
+import trimesh
+
+from app.geometry import cleanup
+from app.geometry.fit import FitOptions, check_scan, fit_scan
+from app.geometry.scan_io import Scan
+from tests.conftest import REAL
+
+
+def _leg_on_platform(platform_share: float, seed: int = 3):
+    """The BodyParts3D right leg (mm) as a 60k-point cloud standing on a 700 x 40 x 700 mm
+    box, whose surface is sampled as ``platform_share`` of the leg's points (its top, its
+    bottom and its sides, as a scanner sees a platform)."""
+    leg = trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+    rng = np.random.default_rng(seed)
+    cloud = trimesh.sample.sample_surface(leg, 60_000, seed=seed)[0]
+    centred = cloud - cloud.mean(axis=0)
+    axis = np.linalg.eigh(centred.T @ centred)[1][:, -1]
+    heights = cloud @ axis
+    # the foot is the end whose points spread widest across the axis
+    low, high = heights < np.percentile(heights, 5), heights > np.percentile(heights, 95)
+    if np.ptp(centred[low], axis=0).sum() < np.ptp(centred[high], axis=0).sum():
+        axis, heights = -axis, -heights
+    sole = heights.min()
+    box = trimesh.creation.box(extents=(700.0, 700.0, 40.0))
+    # box z along the leg's axis, its top face 1 mm under the sole
+    rotation = trimesh.geometry.align_vectors([0, 0, 1], axis)
+    box.apply_transform(rotation)
+    box.apply_translation(cloud.mean(axis=0) + (sole - cloud.mean(axis=0) @ axis - 21.0) * axis)
+    platform = trimesh.sample.sample_surface(box, int(platform_share * len(cloud)), seed=seed)[0]
+    points = np.vstack([cloud, platform + rng.normal(0.0, 0.5, platform.shape)])
+    return points, len(cloud)
+
+
+def test_a_platform_cloud_is_removed_top_and_bottom():
+    points, n_leg = _leg_on_platform(0.3)
+    clean = cleanup.clean_scan(points, None)
+    assert clean.floor is not None
+    # every platform point goes, and the leg keeps nearly all of its points (the sole
+    # within the floor tolerance goes with the floor)
+    assert len(clean.points) <= n_leg
+    assert len(clean.points) >= 0.97 * n_leg
+    assert np.ptp(clean.points, axis=0).max() < 1000
+
+
+def test_a_leg_on_a_platform_cloud_is_fitted_as_without_it():
+    points, n_leg = _leg_on_platform(0.3)
+    options = FitOptions()
+    alone = Scan(points[:n_leg], None, "mm", False, "xyz")
+    on_platform = Scan(points, None, "mm", False, "xyz")
+    girths = [fit_scan(s, options, placement=check_scan(s, options)).landmarks.tape_girths_mm
+              for s in (alone, on_platform)]
+    for name in ("B", "C"):
+        assert abs(girths[0][name] - girths[1][name]) < 1.0
+
+
+def test_a_leg_alone_has_no_floor():
+    points, n_leg = _leg_on_platform(0.0)
+    assert cleanup.find_floor(points[:n_leg]) is None
