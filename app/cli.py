@@ -90,13 +90,18 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     import os
 
     from app.db.migrate import upgrade_to_head
+    from app.logs import configure_logging
     from app.settings import get_settings
 
     # the bound address decides whether auth is required by default (CALF_AUTH)
     os.environ["CALF_HOST"] = args.host
     get_settings.cache_clear()
-    upgrade_to_head(get_settings().resolved_database_url)
-    uvicorn.run("app.main:app", host=args.host, port=args.port, workers=1)
+    settings = get_settings()
+    configure_logging(settings.log_level, json=settings.log_json)
+    upgrade_to_head(settings.resolved_database_url)
+    # uvicorn's own logging config would replace ours (log_config=None keeps it); the
+    # request line is the service's (access_log off)
+    uvicorn.run("app.main:app", host=args.host, port=args.port, workers=1, log_config=None, access_log=False)
     return 0
 
 
@@ -148,10 +153,12 @@ def _cmd_worker(args: argparse.Namespace) -> int:
     from app.db.migrate import upgrade_to_head
     from app.db.session import session_factory
     from app.jobs.runner import EmbeddedRunner
+    from app.logs import configure_logging
     from app.services.storage import ScanStore
     from app.settings import get_settings
 
     settings = get_settings()
+    configure_logging(settings.log_level, json=settings.log_json)
     upgrade_to_head(settings.resolved_database_url)
 
     async def run() -> None:

@@ -64,6 +64,21 @@ class Unprocessable(ServiceError):
     status, code, title = 422, "unprocessable", "The input cannot be processed"
 
 
+class Conflict(ServiceError):
+    status, code, title = 409, "conflict", "The request conflicts with an earlier one"
+
+
+class TooManyRequests(ServiceError):
+    """429: the key's rate limit; the response carries Retry-After (whole seconds)."""
+
+    status, code, title = 429, "rate_limited", "Too many requests"
+
+    def __init__(self, detail: str, retry_after_s: int, **kwargs):
+        super().__init__(detail, **kwargs)
+        self.headers = {"Retry-After": str(int(retry_after_s))}
+        self.extra = {**self.extra, "retry_after_s": int(retry_after_s)}
+
+
 class Unavailable(ServiceError):
     status, code, title = 503, "unavailable", "The service is not ready"
 

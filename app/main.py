@@ -10,10 +10,13 @@ from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
 
 from app import __version__
-from app.api import designs, health, jobs, records, scans
+from app.api import designs, health, jobs, metrics, records, scans
+from app.api.middleware import RequestContextMiddleware
 from app.api.problems import add_problem_schema, install_problem_handlers
 from app.db.session import engine_for, session_factory
 from app.jobs.runner import EmbeddedRunner
+from app.metrics import Metrics
+from app.services.rate_limits import RateLimiter
 from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
 
@@ -42,7 +45,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.sessions = session_factory(url)
         app.state.engine_dialect = engine_for(url).dialect.name
         app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
-        app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s, settings.run_jobs)
+        app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
+                                          settings.run_jobs, metrics=app.state.metrics)
         if not settings.auth_required:
             log.warning("API keys are not required (CALF_AUTH=off or bound to %s): every request acts for the "
                         "tenant 'default'. Bind to a public address or set CALF_AUTH=required to require keys.",
@@ -54,6 +58,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             await app.state.runner.stop()
 
     app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan)
+    app.state.metrics = Metrics()
+    app.state.rate_limits = {
+        "requests": RateLimiter(settings.rate_limit, settings.rate_burst),
+        "uploads": RateLimiter(settings.upload_rate_limit, settings.upload_rate_burst),
+    }
     install_problem_handlers(app)
     if settings.cors_origins:
         # browsers of the listed origins only (a clinic's portal); the headers a client
@@ -66,7 +75,9 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             expose_headers=["ETag", "Location", "Retry-After", "X-Request-ID"],
             max_age=600,
         )
-    for module in (scans, jobs, records, designs, health):
+    # outermost: every response (CORS preflights and problems too) carries the request id
+    app.add_middleware(RequestContextMiddleware, metrics=app.state.metrics)
+    for module in (scans, jobs, records, designs, health, metrics):
         app.include_router(module.router)
 
     def openapi() -> dict:

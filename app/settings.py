@@ -31,6 +31,14 @@ class Settings(BaseSettings):
     CALF_CORS_ORIGINS    JSON list of the web origins allowed to call the API from a
                          browser, e.g. ["https://portal.clinic.example"] (none)
     CALF_HOST            the address the service is bound to (set by `calf-nurbs serve`)
+    CALF_RATE_LIMIT      requests per minute per API key (600; 0: no limit), with bursts
+                         of CALF_RATE_BURST (100); over it: 429 and Retry-After
+    CALF_UPLOAD_RATE_LIMIT
+                         uploads per minute per key (30), bursts of CALF_UPLOAD_RATE_BURST (10)
+    CALF_IDEMPOTENCY_HOURS
+                         how long an Idempotency-Key's first response is kept (24)
+    CALF_LOG_LEVEL / CALF_LOG_JSON
+                         log level (INFO); JSON lines (true) or plain text (false)
     CALF_AUTH            required | off.  Default: required, unless the service is bound
                          to localhost (127.0.0.1, ::1, localhost), where it is off and
                          every request acts for the tenant "default" (a warning is logged
@@ -51,6 +59,13 @@ class Settings(BaseSettings):
     host: str = "127.0.0.1"
     cors_origins: list[str] = Field(default_factory=list)
     auth: Literal["required", "off"] | None = None
+    rate_limit: float = Field(600.0, ge=0)
+    rate_burst: int = Field(100, ge=1)
+    upload_rate_limit: float = Field(30.0, ge=0)
+    upload_rate_burst: int = Field(10, ge=1)
+    idempotency_hours: float = Field(24.0, gt=0)
+    log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = "INFO"
+    log_json: bool = True
 
     @property
     def auth_required(self) -> bool:

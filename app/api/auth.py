@@ -2,8 +2,9 @@
 ``X-API-Key: <key>``), its tenant and its scopes.
 
 ``Depends(authorize("read"))`` on a route gives its :class:`Principal`, or answers 401
-(no key, or a malformed, unknown, revoked or expired one) or 403 (the key lacks every
-scope the route accepts).  With auth off (a service bound to localhost, or
+(no key, or a malformed, unknown, revoked or expired one), 403 (the key lacks every
+scope the route accepts) or 429 (the key's rate limit, :mod:`app.services.rate_limits`;
+``upload=True`` also takes from the key's upload bucket).  With auth off (a service bound to localhost, or
 CALF_AUTH=off) every request acts for the tenant "default" with every scope.
 """
 
@@ -15,15 +16,16 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
 
-from app.errors import Forbidden, Unauthorized
+from app.errors import Forbidden, TooManyRequests, Unauthorized
 from app.services.keys import LOCAL_PRINCIPAL, KeyService, Principal
 
 bearer_scheme = HTTPBearer(auto_error=False, scheme_name="bearer", description="the clinic's API key: cnk_...")
 header_scheme = APIKeyHeader(name="X-API-Key", auto_error=False, scheme_name="apiKey", description="the clinic's API key: cnk_...")
 
 
-def authorize(*scopes: str):
-    """A dependency that admits a key holding any of ``scopes`` (admin holds all)."""
+def authorize(*scopes: str, upload: bool = False):
+    """A dependency that admits a key holding any of ``scopes`` (admin holds all),
+    within its rate limits."""
 
     def dependency(
         request: Request,
@@ -48,6 +50,20 @@ def authorize(*scopes: str):
                 f"{', '.join(sorted(principal.scopes)) or 'none'}",
                 code="insufficient_scope",
             )
+        # who the limit counts: the key, or (auth off) the client's address
+        who = principal.key_prefix or f"address:{request.client.host if request.client else '-'}"
+        request.state.tenant_id = principal.tenant_id  # for the request's log line
+        limits = request.app.state.rate_limits
+        for name in ("requests", "uploads") if upload else ("requests",):
+            limiter = limits[name]
+            wait = limiter.take(who)
+            if wait:
+                request.app.state.metrics.rate_limited.inc()
+                raise TooManyRequests(
+                    f"this API key has sent more {name} than its limit of {limiter.rate * 60:g} a minute; "
+                    f"try again in {wait} s",
+                    retry_after_s=wait,
+                )
         return principal
 
     return dependency

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from fastapi import APIRouter, Depends, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from fastapi.encoders import jsonable_encoder
@@ -10,6 +12,7 @@ from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session
+from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
 from app.api.schemas import DesignOut, DesignRequest
 from app.errors import NotAcceptable, NotFound
@@ -20,6 +23,7 @@ from app.services.designs import DesignService, color_scale, design_view, knitti
 router = APIRouter(prefix="/api/v1", tags=["designs"], responses=auth_problems())
 
 DESIGN_PROBLEMS = problems(
+    s400="bad_request: the body is not UTF-8 JSON",
     s404="record_not_found",
     s422="invalid_target, invalid_fabric, unreachable_pressure (the fabric would have to stretch beyond its table or "
     "strain limit), invalid_record, invalid_request",
@@ -28,10 +32,18 @@ DESIGN_PROBLEMS = problems(
 
 @router.post("/records/{record_id}/designs", status_code=201, response_model=DesignOut,
              summary="Design a graduated compression stocking from a record (stored with its inputs)",
-             responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}}, **DESIGN_PROBLEMS})
-def create_design(record_id: str, request: DesignRequest, session: Session = Depends(get_session), principal: Principal = Depends(authorize("design"))):
-    design = DesignService(session, principal.tenant_id).create(record_id, request.model_dump())
-    return JSONResponse(jsonable_encoder(design_view(design)), status_code=201, headers={"Location": f"/api/v1/designs/{design.id}"})
+             responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}, **REPLAYED}},
+                        **DESIGN_PROBLEMS, **IDEMPOTENCY_PROBLEMS})
+async def create_design(record_id: str, body: DesignRequest, request: Request, session: Session = Depends(get_session),
+                        principal: Principal = Depends(authorize("design")), idempotency: str | None = Depends(idempotency_key)):
+    inputs = body.model_dump()
+
+    async def design() -> JSONResponse:
+        made = await run_in_threadpool(DesignService(session, principal.tenant_id).create, record_id, inputs)
+        return JSONResponse(jsonable_encoder(design_view(made)), status_code=201, headers={"Location": f"/api/v1/designs/{made.id}"})
+
+    return await answer_once(request, session, principal, idempotency, "create_design",
+                             {"record_id": record_id, "inputs": body.model_dump(mode="json")}, design)
 
 
 @router.get("/records/{record_id}/designs", response_model=list[DesignOut], summary="The designs made from a record",
@@ -58,7 +70,7 @@ def get_knitting_spec(design_id: str, session: Session = Depends(get_session), p
             response_class=Response,
             responses={200: {"content": {"model/gltf-binary": {}, "text/csv": {}}, "description": "the map"},
                        **problems(s404="design_not_found", s406="not_acceptable")})
-async def get_pressure_map(design_id: str, request: Request, file_format: str | None = Query(None, alias="format", description="glb | csv"),
+async def get_pressure_map(design_id: str, request: Request, file_format: Literal["glb", "csv"] | None = Query(None, alias="format", description="overrides Accept"),
                            session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     accept = (request.headers.get("accept") or "*/*").lower()
     fmt = (file_format or ("csv" if "text/csv" in accept and "gltf" not in accept else "glb" if any(

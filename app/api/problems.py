@@ -12,6 +12,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match
 
+from app.api.middleware import request_id_of
 from app.errors import PROBLEM_TYPE_PREFIX, ServiceError, from_fit_failure
 from app.geometry.errors import FitFailure
 
@@ -31,6 +32,7 @@ class Problem(BaseModel):
     detail: str
     instance: str | None = None
     code: str
+    request_id: str | None = Field(None, description="the request's X-Request-ID: quote it when asking about this error")
 
 
 def problem_response(request: Request, status: int, code: str, title: str, detail: str, extra: dict | None = None) -> JSONResponse:
@@ -43,7 +45,13 @@ def problem_response(request: Request, status: int, code: str, title: str, detai
         "code": code,
         **(extra or {}),
     }
-    return JSONResponse(body, status_code=status, media_type=PROBLEM_MEDIA_TYPE)
+    request_id = request_id_of(request.scope)
+    if request_id:
+        body["request_id"] = request_id
+    response = JSONResponse(body, status_code=status, media_type=PROBLEM_MEDIA_TYPE)
+    if request_id:  # a 500 is sent from outside the middleware that adds it
+        response.headers["X-Request-ID"] = request_id
+    return response
 
 
 def install_problem_handlers(app: FastAPI) -> None:
@@ -76,6 +84,8 @@ def install_problem_handlers(app: FastAPI) -> None:
         phrase = HTTPStatus(exc.status_code).phrase
         code = phrase.lower().replace(" ", "_").replace("-", "_")
         detail = exc.detail if isinstance(exc.detail, str) else phrase
+        if exc.status_code == 400 and detail == "There was an error parsing the body":  # FastAPI's words
+            detail = "the request body cannot be read: it must be JSON in UTF-8"
         headers = dict(exc.headers or {})
         if exc.status_code == 405:
             # every method of the path (Starlette names only the first route's)
@@ -147,4 +157,5 @@ def auth_problems() -> dict:
         s401="missing_key / invalid_key: no API key, or a malformed, unknown, revoked or expired one "
         "(WWW-Authenticate: Bearer)",
         s403="insufficient_scope: the key lacks the scope this operation needs",
+        s429="rate_limited: the key sent more requests (or uploads) than its limit; Retry-After says when to retry",
     )

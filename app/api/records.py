@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Literal
+
 from fastapi import APIRouter, Body, Depends, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
 from fastapi.encoders import jsonable_encoder
@@ -15,6 +17,9 @@ from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPa
 from app.errors import NotAcceptable, Unprocessable
 from app.services.keys import Principal
 from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
+
+#: comma-separated decimal numbers (mm)
+HEIGHTS_PATTERN = r"^\s*-?\d+(\.\d+)?(\s*,\s*-?\d+(\.\d+)?)*\s*$"
 
 router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 
@@ -45,7 +50,7 @@ def record_summary(record) -> dict:
             responses=problems(s400="invalid_cursor"))
 def list_records(
     limit: int = Query(50, ge=1, le=500),
-    cursor: str | None = Query(None, description="next_cursor of the previous page"),
+    cursor: str | None = Query(None, pattern=r"^[A-Za-z0-9_=-]{1,200}$", description="next_cursor of the previous page"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
@@ -64,7 +69,8 @@ def get_record(record_id: str, session: Session = Depends(get_session), principa
 
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
-                        **problems(s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
+                        **problems(s400="bad_request: the body is not UTF-8 JSON",
+                                   s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
 def import_record(data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
                   session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
     service = RecordService(session, principal.tenant_id)
@@ -128,7 +134,7 @@ def negotiate_surface_format(accept: str | None, query_format: str | None) -> st
 async def get_surface(
     record_id: str,
     request: Request,
-    file_format: str | None = Query(None, alias="format", description="stl | glb | gltf (overrides Accept)"),
+    file_format: Literal["stl", "glb", "gltf"] | None = Query(None, alias="format", description="overrides Accept"),
     around: int = Query(144, ge=AROUND_RANGE[0], le=AROUND_RANGE[1], description="samples around the leg"),
     along: int = Query(100, ge=ALONG_RANGE[0], le=ALONG_RANGE[1],
                        description=f"samples along the leg; around x along at most {MAX_SURFACE_SAMPLES}"),
@@ -157,7 +163,8 @@ async def get_surface(
             responses=problems(s404="record_not_found", s422="height_out_of_range, invalid_request"))
 async def get_measurements(
     record_id: str,
-    heights: str | None = Query(None, description="comma-separated calf-frame heights in mm, e.g. 50,120.5"),
+    heights: str | None = Query(None, pattern=HEIGHTS_PATTERN, max_length=2000,
+                                description="comma-separated calf-frame heights in mm, e.g. 50,120.5"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import asyncio
+import time
+from typing import Literal
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.concurrency import run_in_threadpool
@@ -11,10 +13,13 @@ from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
+from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, answer_once, idempotency_key
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
 from app.errors import Unavailable
+from app.geometry.errors import FitFailure
+from app.geometry.scan_io import SUPPORTED_FORMATS
 from app.jobs.runner import EmbeddedRunner
 from app.services.fitting import parse_options, validate_scan_file
 from app.services.jobs import JobService, job_view
@@ -23,9 +28,11 @@ from app.services.storage import ScanStore
 from app.services.uploads import MEDIA_TYPES, receive_upload
 from app.settings import Settings
 
+ScanFormat = Literal[SUPPORTED_FORMATS]  # type: ignore[valid-type]
+
 router = APIRouter(prefix="/api/v1", tags=["scans"], responses=auth_problems())
 
-_SCAN_BODY = {"schema": {"type": "string", "format": "binary"}}
+_SCAN_BODY = {"schema": {"type": "string", "format": "binary", "minLength": 1}}
 UPLOAD_BODY = {
     "requestBody": {
         "required": True,
@@ -37,7 +44,7 @@ UPLOAD_BODY = {
                     "type": "object",
                     "required": ["file"],
                     "properties": {
-                        "file": {"type": "string", "format": "binary"},
+                        "file": {"type": "string", "format": "binary", "minLength": 1},
                         "side": {"type": "string", "enum": ["left", "right"]},
                         "units": {"type": "string", "enum": ["mm", "cm", "m"]},
                         "points": {"type": "integer", "minimum": 4, "maximum": 36, "default": 15},
@@ -59,7 +66,8 @@ UPLOAD_BODY = {
     openapi_extra=UPLOAD_BODY,
     responses={
         202: {"description": "Accepted: the scan is stored and a job queued; Location points at the job",
-              "headers": {"Location": {"schema": {"type": "string"}, "description": "/api/v1/jobs/{id}"}}},
+              "headers": {"Location": {"schema": {"type": "string"}, "description": "/api/v1/jobs/{id}"}, **REPLAYED}},
+        **IDEMPOTENCY_PROBLEMS,
         **problems(
             s400="empty_body, bad_request (malformed multipart, no 'file' field)",
             s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB",
@@ -76,33 +84,51 @@ UPLOAD_BODY = {
 )
 async def upload_scan(
     request: Request,
-    side: str | None = Query(None, description="left | right: which leg of a whole-body scan"),
-    units: str | None = Query(None, description="mm | cm | m; detected from the extent when omitted"),
+    side: Literal["left", "right"] | None = Query(None, description="which leg of a whole-body scan"),
+    units: Literal["mm", "cm", "m"] | None = Query(None, description="the file's unit; detected from the extent when omitted"),
     points: int | None = Query(None, ge=4, le=36, description="feature points per layer (paper: 8 or 15)"),
-    file_format: str | None = Query(None, alias="format", description="scan format for application/octet-stream"),
+    file_format: ScanFormat | None = Query(None, alias="format", description="scan format for application/octet-stream"),
     settings: Settings = Depends(get_app_settings),
     store: ScanStore = Depends(get_store),
     runner: EmbeddedRunner = Depends(get_runner),
     session: Session = Depends(get_session),
-    principal: Principal = Depends(authorize("upload")),
+    principal: Principal = Depends(authorize("upload", upload=True)),
+    idempotency: str | None = Depends(idempotency_key),
 ):
     upload = await receive_upload(request.headers, request.stream(), store, settings.max_upload_bytes, file_format)
     try:
         fields = upload.fields
         options = parse_options(side or fields.get("side"), units or fields.get("units"), points if points is not None else fields.get("points"))
-        try:
-            # the quick acceptance check runs in a worker process: reading the file and
-            # finding the calf (ankle, calf, knee); nothing is stored if it fails
-            placement = await runner.run_in_worker(
-                validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
-                settings.max_scan_faces, timeout=settings.validation_timeout_s
-            )
-        except asyncio.TimeoutError as exc:
-            raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
-        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
     except BaseException:
         upload.discard()
         raise
-    runner.notify()
-    body = jsonable_encoder(job_view(job, scan, reused))
-    return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
+
+    async def check_and_queue() -> JSONResponse:
+        check = request.app.state.metrics.check_seconds
+        started = time.perf_counter()
+        try:
+            try:
+                # the quick acceptance check runs in a worker process: reading the file and
+                # finding the calf (ankle, calf, knee); nothing is stored if it fails
+                placement = await runner.run_in_worker(
+                    validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
+                    settings.max_scan_faces, timeout=settings.validation_timeout_s
+                )
+            except asyncio.TimeoutError as exc:
+                check.labels("check_timeout").observe(time.perf_counter() - started)
+                raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
+            except FitFailure as failure:
+                check.labels(failure.reason.value).observe(time.perf_counter() - started)
+                raise
+            check.labels("accepted").observe(time.perf_counter() - started)
+            job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
+        except BaseException:
+            upload.discard()
+            raise
+        runner.notify()
+        body = jsonable_encoder(job_view(job, scan, reused))
+        return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
+
+    content = {"sha256": upload.sha256, "format": upload.file_format, "options": options}
+    return await answer_once(request, session, principal, idempotency, "upload_scan", content, check_and_queue,
+                             on_replay=upload.discard)

@@ -12,7 +12,7 @@ from datetime import datetime
 from sqlalchemy import delete, func, select, text, update
 from sqlalchemy.orm import Session
 
-from app.db.models import ApiKey, Design, Job, Record, Scan, Tenant, utcnow
+from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, Tenant, utcnow
 
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
@@ -230,3 +230,29 @@ class DesignRepository(_Owned):
 
 def ping(session: Session) -> None:
     session.execute(text("SELECT 1"))
+
+
+class IdempotentRequestRepository(_Owned):
+    model = IdempotentRequest
+
+    def by_key(self, key: str) -> IdempotentRequest | None:
+        return self.session.scalar(self._scoped(select(IdempotentRequest).where(IdempotentRequest.key == key)))
+
+    def reserve(self, key: str, operation: str, fingerprint: str, expires_at: datetime) -> IdempotentRequest:
+        """Insert a pending row; a concurrent one with the same key raises IntegrityError."""
+        row = IdempotentRequest(tenant_id=self._owner(None), key=key, operation=operation, fingerprint=fingerprint,
+                                state="pending", expires_at=expires_at)
+        self.session.add(row)
+        self.session.flush()
+        return row
+
+    def complete(self, row_id: str, status_code: int, body: dict, location: str | None) -> None:
+        self.session.execute(update(IdempotentRequest).where(IdempotentRequest.id == row_id).values(
+            state="done", status_code=status_code, response_body=body, location=location))
+
+    def remove(self, row_id: str) -> None:
+        self.session.execute(delete(IdempotentRequest).where(IdempotentRequest.id == row_id))
+
+    def remove_expired(self, now: datetime) -> int:
+        result = self.session.execute(self._scoped(delete(IdempotentRequest)).where(IdempotentRequest.expires_at < now))
+        return result.rowcount or 0

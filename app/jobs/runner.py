@@ -15,6 +15,8 @@ from __future__ import annotations
 import asyncio
 import logging
 import multiprocessing
+import time
+from typing import TYPE_CHECKING
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 
@@ -26,12 +28,17 @@ from app.services.fitting import fit_scan_file
 from app.services.records import record_etag
 from app.services.storage import ScanStore
 
+if TYPE_CHECKING:
+    from app.metrics import Metrics
+
 log = logging.getLogger("calf_nurbs.runner")
 
 
 class EmbeddedRunner:
-    def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True):
+    def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True,
+                 metrics: Metrics | None = None):
         self.sessions = sessions
+        self.metrics = metrics
         self.store = store
         self.workers = workers
         self.job_timeout_s = job_timeout_s
@@ -142,24 +149,35 @@ class EmbeddedRunner:
             self._wakeup.set()
 
     async def _run_job(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> None:
+        started = time.perf_counter()
+        reason = await self._fit_and_store(job_id, path, file_format, options, placement)
+        if self.metrics is not None:
+            self.metrics.job_ended(time.perf_counter() - started, reason)
+
+    async def _fit_and_store(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> str | None:
+        """Fit one claimed job and store its outcome; the failure code, or None."""
         try:
             outcome = await self.run_in_worker(fit_scan_file, path, file_format, options, placement, timeout=self.job_timeout_s)
         except FitFailure as failure:
             await asyncio.to_thread(self._finish_failure, job_id, failure.reason.value, failure.detail)
+            return failure.reason.value
         except asyncio.TimeoutError:
             await asyncio.to_thread(self._finish_failure, job_id, "timeout", f"the fit took longer than {self.job_timeout_s:g} s")
+            return "timeout"
         except BrokenProcessPool:
             log.exception("worker process died during job %s", job_id)
             await asyncio.to_thread(self._finish_failure, job_id, "worker_crashed", "the fitting worker process died")
             self._restart_pool()
+            return "worker_crashed"
         except asyncio.CancelledError:
             raise  # shutting down: the job stays running and is requeued at the next start
-        except Exception as exc:  # a bug: record it on the job rather than lose it
+        except Exception:  # a bug: record it on the job rather than lose it
             log.exception("job %s failed unexpectedly", job_id)
             await asyncio.to_thread(self._finish_failure, job_id, "internal_error",
                                     "the fit failed on an unexpected error; it has been logged for the service's operators")
-        else:
-            await asyncio.to_thread(self._finish_success, job_id, outcome)
+            return "internal_error"
+        await asyncio.to_thread(self._finish_success, job_id, outcome)
+        return None
 
     def _restart_pool(self) -> None:
         if self.pool is not None:

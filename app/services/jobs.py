@@ -55,6 +55,11 @@ class JobService:
         return job, self.scans.get(job.scan_id)
 
 
+def job_status_counts(session: Session) -> dict[str, int]:
+    """Jobs of every tenant by status (the service's own metrics, no tenant shown)."""
+    return JobRepository(session).count_by_status()
+
+
 def job_view(job: Job, scan: Scan, reused: bool | None = None) -> dict:
     error = None
     if job.error_code:

@@ -14,6 +14,9 @@ from app.settings import Settings
 
 
 def make_settings(data_dir: Path, **overrides) -> Settings:
+    """Settings on a temporary SQLite file.  The upload rate limit is off unless a test
+    sets it (suites upload dozens of scans back to back; test_observability tests it)."""
+    overrides = {"upload_rate_limit": 0.0, **overrides}
     return Settings(data_dir=data_dir, database_url=f"sqlite:///{data_dir / 'calf.db'}", workers=2, **overrides)
 
 

@@ -47,13 +47,13 @@ def wait_ready(base: str, process: subprocess.Popen, timeout: float = 60.0) -> N
     raise AssertionError("server did not become ready")
 
 
-def fit_one(base: str) -> dict:
+def fit_one(base: str, auth: dict | None = None) -> dict:
     data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
-    response = httpx.post(f"{base}/api/v1/scans", content=data, headers={"Content-Type": "model/stl"}, timeout=60)
+    response = httpx.post(f"{base}/api/v1/scans", content=data, headers={"Content-Type": "model/stl", **(auth or {})}, timeout=60)
     assert response.status_code == 202, response.text
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
-        job = httpx.get(base + response.headers["location"], timeout=10).json()
+        job = httpx.get(base + response.headers["location"], headers=auth, timeout=10).json()
         if job["status"] in ("succeeded", "failed"):
             return job
         time.sleep(0.2)

@@ -1,0 +1,80 @@
+"""The committed OpenAPI document (openapi/openapi.json) against the service as deployed:
+Schemathesis generates requests for every operation, sends them to `calf-nurbs serve`
+(auth required, a real key), and runs all of its checks on every response: no 5xx, and
+status, headers, media type and body as documented.
+
+Bounded: CALF_SCHEMATHESIS_EXAMPLES cases per operation (default 20), derandomized so a
+run is repeatable.  Path ids are, for half of the cases, those of a real record, design
+and job of the key's clinic, so that the success responses are checked too, not only
+the 404s of random ids.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import httpx
+import pytest
+
+schemathesis = pytest.importorskip("schemathesis", reason="schemathesis is a test extra: pip install -e '.[test]'")
+from hypothesis import HealthCheck, settings  # noqa: E402
+
+from app.services.uploads import MEDIA_TYPES  # noqa: E402
+from tests.api.test_processes import BIN, fit_one, free_port, start, stop, wait_ready  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_EXAMPLES", "20"))
+#: operations whose 422 answers content that a JSON schema cannot judge: a scan's bytes
+#: (is it a leg?), a record's geometry (a knot vector with a domain, a closed tube), a
+#: design's physics (can the fabric reach the pressure?).  Schemathesis's positive-data
+#: check then accepts the documented 422 for them; every other check runs unchanged.
+#: An upload may also answer 415 (a raw application/octet-stream body needs ?format=, a
+#: rule between the body's media type and a parameter that OpenAPI cannot state) and 400
+#: (an empty body: Schemathesis does not apply minLength to binary strings).  A page
+#: cursor is opaque: only the ones the service issued are valid (400 invalid_cursor).
+SEMANTIC_STATUSES = {"POST /api/v1/scans": ("400", "415", "422"), "POST /api/v1/records": ("422",),
+                     "POST /api/v1/records/{record_id}/designs": ("422",), "GET /api/v1/records": ("400",)}
+CONFIG = "\n".join(
+    f'[[operations]]\ninclude-name = "{name}"\n[operations.checks.positive_data_acceptance]\n'
+    f'expected-statuses = {["2xx", "401", "403", "404", "409", "429", *statuses]!r}\n'.replace("'", '"')
+    for name, statuses in SEMANTIC_STATUSES.items())
+#: the scan media types are bytes on the wire, as application/octet-stream is
+schemathesis.serializer.alias([m for m in MEDIA_TYPES if m != "text/csv"], "application/octet-stream")
+schema = schemathesis.openapi.from_path(ROOT / "openapi" / "openapi.json", config=schemathesis.config.SchemathesisConfig.from_str(CONFIG))
+
+
+@pytest.fixture(scope="module")
+def deployed(tmp_path_factory):
+    """(base URL, auth headers, real ids) of a served instance with one fitted record."""
+    data_dir = tmp_path_factory.mktemp("schemathesis") / "var"
+    env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "1", "CALF_AUTH": "required",
+           "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
+    created = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", "fuzz", "--scopes", "admin"],
+                             env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    auth = {"Authorization": f"Bearer {created.stdout.strip().splitlines()[-1]}"}
+    port = free_port()
+    server = start(["serve", "--port", str(port)], env)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_ready(base, server)
+        job = fit_one(base, auth)
+        assert job["status"] == "succeeded", job
+        design = httpx.post(f"{base}/api/v1/records/{job['record_id']}/designs", headers=auth, timeout=60,
+                            json={"compression_class": "II", "fabric": {"stiffness_n_per_cm": 10}})
+        assert design.status_code == 201, design.text
+        ids = {"record_id": job["record_id"], "job_id": job["id"], "design_id": design.json()["id"]}
+        yield base, auth, ids
+    finally:
+        stop(server)
+
+
+@schema.parametrize()
+@settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+          suppress_health_check=list(HealthCheck))
+def test_every_operation_keeps_its_contract(case, deployed):
+    base, auth, ids = deployed
+    if case.path_parameters and len(str(next(iter(case.path_parameters.values())))) % 2 == 0:
+        case.path_parameters = {name: ids.get(name, value) for name, value in case.path_parameters.items()}
+    case.call_and_validate(base_url=base, headers=auth, timeout=60)
