@@ -10,9 +10,10 @@ Three steps, each a stated geometric rule (units mm; points (n, 3), faces (f, 3)
    squares on their inliers three times (LO-RANSAC) and the one with most inliers kept.  It is a floor, not skin, when
    (a) its inliers spread at least :data:`FLOOR_MIN_WIDTH_MM` across their narrower
    in-plane axis - wider than any foot (ANSUR II's widest foot is 126 mm) and no patch of
-   skin is that flat - and (b) at least a quarter of them lie outside the footprint of
-   what stands more than :data:`FLOOR_CLEARANCE_MM` above the plane, projected on it: a
-   floor reaches past what stands on it, a flattened back or calf does not, and
+   skin is that flat - and (b) at least a quarter of them lie in the open, more than
+   :data:`FLOOR_MARGIN_MM` from the shadow (projection on the plane) of everything above
+   it: a floor reaches past what stands on it; a flattened back or calf, or the flat soles
+   of two feet side by side, lie in their own shadow; and
    (c) its normal lies within 45 degrees of the long axis of what stands more than the
    clearance above it (a floor is across a standing leg; the table under a lying body
    runs along it).  Everything within the tolerance of the plane or beyond it is removed, and the search repeats (a
@@ -43,6 +44,9 @@ FLOOR_TOLERANCE_MM = 3.0
 FLOOR_MIN_WIDTH_MM = 150.0
 FLOOR_OUTSIDE_FRACTION = 0.25
 FLOOR_CLEARANCE_MM = 60.0
+#: a floor point this far (in the plane) from anything above the plane is in the open;
+#: a point spacing of scanned skin is 1-10 mm, so a sole's points are all closer
+FLOOR_MARGIN_MM = 30.0
 MAX_FLOORS = 3
 RANSAC_TRIALS = 256
 RANSAC_SAMPLE = 20_000
@@ -143,9 +147,13 @@ def find_floor(points: np.ndarray) -> Floor | None:
     spread = np.percentile(flat, 97.5, axis=0) - np.percentile(flat, 2.5, axis=0)
     if spread.min() < FLOOR_MIN_WIDTH_MM:
         return None
-    above = (rest - centre) @ in_plane.T
-    lo, hi = above.min(axis=0), above.max(axis=0)
-    outside = ((flat < lo) | (flat > hi)).any(axis=1).mean()
+    # (b) the floor reaches past what stands on it: its points lie in the open, more than
+    # FLOOR_MARGIN_MM from the shadow (the projection on the plane) of everything above
+    # it.  The flat soles of two feet side by side lie under their own feet, in the
+    # shadow: they are skin, not a floor.
+    shadow = (sample[signed >= FLOOR_TOLERANCE_MM] - centre) @ in_plane.T
+    distance, _ = cKDTree(shadow).query(flat, distance_upper_bound=FLOOR_MARGIN_MM)
+    outside = float(np.mean(~np.isfinite(distance)))
     if outside < FLOOR_OUTSIDE_FRACTION:
         return None
     removed = int(((points - centre) @ normal < FLOOR_TOLERANCE_MM).sum())

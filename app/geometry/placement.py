@@ -35,7 +35,7 @@ from app.geometry.cleanup import CleanScan, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.knee_bend import keep_index, shank_runs
 from app.geometry.landmarks import FAILURE_STAGE, FeatureHeights, find_feature_heights
-from app.geometry.scan_io import Scan
+from app.geometry.scan_io import MIN_POINTS, Scan
 from app.geometry.sections import PolarSections, slice_polar
 from app.geometry.side import infer_side
 
@@ -477,6 +477,12 @@ def _describe(placement: LegPlacement, side: str, points: int) -> str:
 def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     """Find the leg of ``scan`` (see the module docstring); raises FitFailure."""
     clean = clean_scan(scan.points_mm, scan.faces)
+    if len(clean.points) < MIN_POINTS:  # e.g. a mesh of zero-area triangles only
+        raise FitFailure(
+            FailureReason.TOO_FEW_POINTS,
+            f"after removing the floor, needle triangles and stray points, {len(clean.points)} of the scan's "
+            f"{len(scan.points_mm)} points are left; at least {MIN_POINTS} are needed",
+        )
     warnings = []
     if clean.floor is not None:
         warnings.append(f"a floor or platform plane was removed ({clean.floor.n_removed} points)")

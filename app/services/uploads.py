@@ -45,6 +45,9 @@ MEDIA_TYPES = {
 OCTET_STREAM = "application/octet-stream"
 #: a form field (not the file) larger than this is refused
 MAX_FIELD_BYTES = 1024
+#: longest header line of a part (python-multipart's default is 4224): a file name as
+#: long as a deep path of a clinic's archive fits; more is refused with its own code
+MAX_PART_HEADER_BYTES = 16384
 
 
 @dataclass
@@ -192,6 +195,7 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
             "on_part_data": on_part_data,
             "on_part_end": on_part_end,
         },
+        max_header_size=MAX_PART_HEADER_BYTES,
     )
     received = 0
     try:
@@ -204,6 +208,9 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
     except MultipartParseError as exc:
         for writer, _, _ in files:
             writer.abort()
+        if "header size" in str(exc):
+            raise BadRequest(f"a part of the multipart body has a header line longer than {MAX_PART_HEADER_BYTES} bytes: "
+                             "shorten the file name", code="header_too_long") from exc
         raise BadRequest("malformed multipart body: its parts do not follow the boundary declared in Content-Type") from exc
     except BaseException:
         for writer, _, _ in files:
