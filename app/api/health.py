@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+
 from fastapi import APIRouter, Depends, Request
 from fastapi.concurrency import run_in_threadpool
 from sqlalchemy.orm import Session
@@ -14,6 +16,7 @@ from app.db.repositories import ping
 from app.errors import Unavailable
 
 router = APIRouter(tags=["health"])
+log = logging.getLogger("calf_nurbs.health")
 
 
 @router.get("/livez", response_model=Health, summary="The process is up")
@@ -29,7 +32,8 @@ async def readyz(request: Request, session: Session = Depends(get_session)):
         await run_in_threadpool(ping, session)
         current = await run_in_threadpool(current_revision, url)
     except Exception as exc:
-        raise Unavailable(f"the database is not reachable: {type(exc).__name__}", code="database_unreachable") from exc
+        log.exception("readiness: the database is not reachable")  # the cause goes to the log, not to the client
+        raise Unavailable("the database is not reachable", code="database_unreachable") from exc
     head = head_revision(url)
     if current != head:
         raise Unavailable(f"the database is at revision {current}, the code expects {head}", code="migrations_pending")

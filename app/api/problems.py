@@ -68,7 +68,7 @@ def install_problem_handlers(app: FastAPI) -> None:
 
     @app.exception_handler(RequestValidationError)
     async def invalid_request(request: Request, exc: RequestValidationError):
-        errors = [{"loc": list(e.get("loc", ())), "msg": e.get("msg", ""), "type": e.get("type", "")} for e in exc.errors()]
+        errors = [{"loc": list(e.get("loc", ())), "msg": _message(e), "type": e.get("type", "")} for e in exc.errors()]
         detail = "; ".join(f"{'.'.join(str(p) for p in e['loc'])}: {e['msg']}" for e in errors[:10]) or "invalid request"
         if len(errors) > 10:
             detail += f"; and {len(errors) - 10} more"
@@ -101,6 +101,22 @@ def install_problem_handlers(app: FastAPI) -> None:
     async def unexpected(request: Request, exc: Exception):  # pragma: no cover - a bug
         log.exception("unhandled error on %s %s", request.method, request.url.path)
         return problem_response(request, 500, "internal_error", "Internal server error", "an unexpected error occurred; it has been logged")
+
+
+#: what a parameter that fails its pattern should look like, in words (by name)
+PATTERN_HINTS = {
+    "heights": "comma-separated numbers in mm, e.g. 50,120.5",
+    "cursor": "the next_cursor of the previous page, as the service sent it",
+    "Idempotency-Key": "1 to 255 printable ASCII characters without spaces, e.g. a UUID",
+}
+
+
+def _message(error: dict) -> str:
+    """Pydantic's message, except a regular expression, which says nothing to a person."""
+    name = str(error.get("loc", ("",))[-1])
+    if error.get("type") == "string_pattern_mismatch":
+        return f"expected {PATTERN_HINTS.get(name, 'another form')}"
+    return error.get("msg", "")
 
 
 def allowed_methods(request: Request) -> list[str]:

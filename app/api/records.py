@@ -19,7 +19,8 @@ from app.services.keys import Principal
 from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
 
 #: comma-separated decimal numbers (mm)
-HEIGHTS_PATTERN = r"^\s*-?\d+(\.\d+)?(\s*,\s*-?\d+(\.\d+)?)*\s*$"
+_NUMBER = r"[-+]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?"
+HEIGHTS_PATTERN = rf"^\s*{_NUMBER}(\s*,\s*{_NUMBER})*\s*$"
 
 router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 

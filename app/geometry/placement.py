@@ -331,50 +331,11 @@ def _first_axis(samples, weights, shape_axes, up):
     return axis, basis
 
 
-def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float) -> LegPlacement:
-    """Axis, B/C/D, refined calf axis, anterior direction: one candidate leg's placement.
-
-    Paper section 2.1: PCA of the whole leg gives a first axis (refined by the compact
-    slabs' centre line); B, C, D are found on the profile along it; then the axis is
-    re-estimated by PCA of the calf between B and D and the landmarks found again, at
-    most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
-    :data:`AXIS_TOLERANCE_DEG`.  When the first axis finds no calf, the straight runs of
-    the leg's centre line (a bent knee) are tried in turn.
-    """
-    samples, weights = _pca_samples(points, faces)
-    shape_axes = cf.principal_frame(samples, weights)
-    extents = np.ptp(samples @ shape_axes.T, axis=0)
-    if up is None and extents[2] < MIN_ASPECT * extents[:2].max():
-        raise FitFailure(
-            FailureReason.NOT_A_LEG,
-            f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
-            f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
-        )
-    axis, basis = _first_axis(samples, weights, shape_axes, up)
-    half_spaces: tuple = ()
-    try:
-        centre, local, heights, girth, sections, feats, axis, basis = _orient(points, faces, axis, basis, up)
-    except FitFailure as straight_failure:
-        run_failures = [straight_failure]
-        for run in shank_runs(samples, weights, axis):
-            run_basis = cf.perpendicular_basis(run.direction, basis[1])
-            run_points, run_faces = _clip(points, faces, run.half_spaces)
-            try:
-                oriented = _orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces)
-            except FitFailure as failure:
-                run_failures.append(failure)
-                continue
-            centre, local, heights, girth, sections, feats, axis, basis = oriented
-            points, faces, half_spaces = run_points, run_faces, run.half_spaces
-            kept = keep_index(samples, half_spaces)
-            samples, weights = samples[kept], None if weights is None else weights[kept]
-            break
-        else:
-            # the straight axis's failure, unless it found no calf at all: then the run
-            # that got furthest (a bent leg's shank read along its own axis says more)
-            if FAILURE_STAGE.get(straight_failure.reason, 0) > 0:
-                raise straight_failure
-            raise max(run_failures, key=lambda f: FAILURE_STAGE.get(f.reason, 0))
+def _refine(oriented, points, faces, samples, weights, half_spaces):
+    """Paper section 2.1's axis: PCA of the calf between B and D, the landmarks found
+    again along it, at most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves
+    less than :data:`AXIS_TOLERANCE_DEG`.  ``oriented``: what :func:`_orient` found."""
+    centre, local, heights, girth, sections, feats, axis, basis = oriented
     for _ in range(MAX_AXIS_ITERATIONS):
         sample_z = (samples - centre) @ basis[2]
         calf = (sample_z >= feats.b_mm) & (sample_z <= feats.d_mm)
@@ -397,6 +358,57 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
         feats = find_feature_heights(heights, girth, feats.c_mm)
+    return centre, local, heights, girth, sections, feats, axis, basis
+
+
+def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None, mm_per_unit: float) -> LegPlacement:
+    """Axis, B/C/D, refined calf axis, anterior direction: one candidate leg's placement.
+
+    Paper section 2.1: PCA of the whole leg gives a first axis (refined by the compact
+    slabs' centre line); B, C, D are found on the profile along it; then the axis is
+    re-estimated by PCA of the calf between B and D and the landmarks found again, at
+    most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
+    :data:`AXIS_TOLERANCE_DEG`.  When the first axis finds no calf, the straight runs of
+    the leg's centre line (a bent knee) are tried in turn.
+    """
+    samples, weights = _pca_samples(points, faces)
+    shape_axes = cf.principal_frame(samples, weights)
+    extents = np.ptp(samples @ shape_axes.T, axis=0)
+    if up is None and extents[2] < MIN_ASPECT * extents[:2].max():
+        raise FitFailure(
+            FailureReason.NOT_A_LEG,
+            f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
+            f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
+        )
+    axis, basis = _first_axis(samples, weights, shape_axes, up)
+    half_spaces: tuple = ()
+    try:
+        # a bent leg's first axis is the body's: its landmarks may be found, and then not
+        # found again along the calf's own axis - that too sends the leg to its runs
+        centre, local, heights, girth, sections, feats, axis, basis = _refine(
+            _orient(points, faces, axis, basis, up), points, faces, samples, weights, ())
+    except FitFailure as straight_failure:
+        run_failures = [straight_failure]
+        for run in shank_runs(samples, weights, axis):
+            run_basis = cf.perpendicular_basis(run.direction, basis[1])
+            run_points, run_faces = _clip(points, faces, run.half_spaces)
+            kept = keep_index(samples, run.half_spaces)
+            run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
+            try:
+                oriented = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
+                                   run_points, run_faces, run_samples, run_weights, run.half_spaces)
+            except FitFailure as failure:
+                run_failures.append(failure)
+                continue
+            centre, local, heights, girth, sections, feats, axis, basis = oriented
+            points, faces, half_spaces = run_points, run_faces, run.half_spaces
+            break
+        else:
+            # the straight axis's failure, unless it found no calf at all: then the run
+            # that got furthest (a bent leg's shank read along its own axis says more)
+            if FAILURE_STAGE.get(straight_failure.reason, 0) > 0:
+                raise straight_failure
+            raise max(run_failures, key=lambda f: FAILURE_STAGE.get(f.reason, 0))
 
     # anterior: the foot when there is one, else opposite the calf bulge
     calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid

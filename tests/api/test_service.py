@@ -127,7 +127,9 @@ def test_pagination_import_and_delete(client, fitted_records):
         page = client.get("/api/v1/records", params={"limit": 2, "cursor": page["next_cursor"]}).json()
         seen += [item["id"] for item in page["items"]]
     assert len(seen) == len(set(seen)) and set(fitted_records.values()) <= set(seen)
-    assert client.get("/api/v1/records", params={"cursor": "garbage!"}).status_code == 400
+    malformed = client.get("/api/v1/records", params={"cursor": "garbage!"})
+    assert malformed.status_code == 422 and "next_cursor" in malformed.json()["detail"]
+    assert client.get("/api/v1/records", params={"cursor": "Z2FyYmFnZQ"}).json()["code"] == "invalid_cursor"
 
     original = client.get(f"/api/v1/records/{fitted_records[('vh_female_skin.glb', 'right')]}").json()
     for key in ("id", "source", "created_at", "scan_id"):
