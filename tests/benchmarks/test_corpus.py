@@ -44,7 +44,7 @@ def test_the_generator_is_deterministic():
     assert a.data == b.data and a.truth.girths_mm == b.truth.girths_mm
 
 
-@pytest.mark.parametrize("case_id", ["seated-00", "seated-02"])
+@pytest.mark.parametrize("case_id", ["seated-00", "seated-02", "seated-03"])
 def test_a_seated_leg_is_measured_along_its_shank(case_id):
     """Knees bent 56 and 32 degrees (specs of the 220-case corpus), foot to hip."""
     case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
