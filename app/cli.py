@@ -171,6 +171,8 @@ def _cmd_worker(args: argparse.Namespace) -> int:
             ScanStore(settings.scan_dir, settings.tmp_dir),
             settings.workers,
             settings.job_timeout_s,
+            lease_s=settings.job_lease_s,
+            max_attempts=settings.job_max_attempts,
         )
         await runner.start()
         print(json.dumps({"worker": "started", "processes": settings.workers}), flush=True)

@@ -32,6 +32,7 @@ def redact(text: str) -> str:
 
 
 def _redact_event(_logger, _method: str, event: dict) -> dict:
+    event.pop("color_message", None)  # uvicorn's terminal copy of the message
     for name in list(event):
         if name.lower() in DROPPED_FIELDS:
             event[name] = "[redacted]"

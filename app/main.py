@@ -21,6 +21,9 @@ from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
 
 log = logging.getLogger("calf_nurbs")
+#: a temporary upload file older than this at start-up was left by a process that died
+#: (an upload in progress in another API process sharing the directory is younger)
+TEMP_MAX_AGE_S = 3600.0
 
 DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf
 (Li et al., *Fast NURBS-based parametric modeling of human calves*), and serves the
@@ -46,7 +49,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.engine_dialect = engine_for(url).dialect.name
         app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
-                                          settings.run_jobs, metrics=app.state.metrics)
+                                          settings.run_jobs, metrics=app.state.metrics, lease_s=settings.job_lease_s,
+                                          max_attempts=settings.job_max_attempts)
+        removed = app.state.store.clean_temp(TEMP_MAX_AGE_S)
+        if removed:
+            log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)
         if not settings.auth_required:
             log.warning("API keys are not required (CALF_AUTH=off or bound to %s): every request acts for the "
                         "tenant 'default'. Bind to a public address or set CALF_AUTH=required to require keys.",

@@ -26,6 +26,11 @@ class Settings(BaseSettings):
     CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES
                          most points / triangles in an accepted scan (4M / 4M: a whole
                          body at 1 mm holds ~2M; a calf needs ~50k)
+    CALF_JOB_TIMEOUT_S   a fit's time limit (600); its worker process is killed past it
+    CALF_JOB_LEASE_S     how long a runner holds a job without renewing it (60): a job
+                         whose runner died is taken by another after this
+    CALF_JOB_MAX_ATTEMPTS
+                         claims of a job whose worker keeps dying before it fails (3)
     CALF_RUN_JOBS        false: this process accepts uploads but fits nothing (an API
                          container whose jobs a `calf-nurbs worker` process runs)
     CALF_CORS_ORIGINS    JSON list of the web origins allowed to call the API from a
@@ -56,6 +61,8 @@ class Settings(BaseSettings):
     run_jobs: bool = True
     validation_timeout_s: float = Field(60.0, gt=0)
     job_timeout_s: float = Field(600.0, gt=0)
+    job_lease_s: float = Field(60.0, ge=1.0)
+    job_max_attempts: int = Field(3, ge=1, le=20)
     host: str = "127.0.0.1"
     cors_origins: list[str] = Field(default_factory=list)
     auth: Literal["required", "off"] | None = None

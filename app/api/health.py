@@ -24,8 +24,8 @@ def livez():
     return {"status": "ok"}
 
 
-@router.get("/readyz", response_model=Health, summary="The database is reachable and migrated to head",
-            responses=problems(s503="database_unreachable or migrations_pending"))
+@router.get("/readyz", response_model=Health, summary="The database is reachable and migrated to head, and the job runner can run",
+            responses=problems(s503="database_unreachable, migrations_pending or runner_unavailable"))
 async def readyz(request: Request, session: Session = Depends(get_session)):
     url = request.app.state.settings.resolved_database_url
     try:
@@ -34,6 +34,9 @@ async def readyz(request: Request, session: Session = Depends(get_session)):
     except Exception as exc:
         log.exception("readiness: the database is not reachable")  # the cause goes to the log, not to the client
         raise Unavailable("the database is not reachable", code="database_unreachable") from exc
+    problem = request.app.state.runner.problem()
+    if problem:
+        raise Unavailable(problem, code="runner_unavailable")
     head = head_revision(url)
     if current != head:
         raise Unavailable(f"the database is at revision {current}, the code expects {head}", code="migrations_pending")

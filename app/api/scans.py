@@ -78,7 +78,7 @@ UPLOAD_BODY = {
             "no_ankle / no_knee (the ankle or the knee waist is not in the scan: the detail says how far the "
             "scan reaches and what a re-scan must include), several_legs (the detail lists the legs found; "
             "pass side), side_not_found, invalid_option",
-            s503="the upload check timed out",
+            s503="check_timeout (the upload check took too long) or runner_unavailable (its worker stopped twice)",
         ),
     },
 )

@@ -99,7 +99,8 @@ class Scan(Base):
 
 
 class Job(Base):
-    """A fit of one scan with given options: queued -> running -> succeeded | failed."""
+    """A fit of one scan with given options: queued -> running -> succeeded | failed.
+    A running job is leased to one runner (``lease_owner`` until ``lease_expires_at``)."""
 
     __tablename__ = "jobs"
 
@@ -117,6 +118,9 @@ class Job(Base):
     error_detail: Mapped[str | None] = mapped_column(Text)
     stage_seconds: Mapped[dict | None] = mapped_column(JSON)
     record_id: Mapped[str | None] = mapped_column(ForeignKey("records.id", ondelete="SET NULL"))
+    #: the runner that holds a running job, until when (renewed while the fit runs)
+    lease_owner: Mapped[str | None] = mapped_column(String(100))
+    lease_expires_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
 
     __table_args__ = (Index("ix_jobs_status_created", "status", "created_at"), Index("ix_jobs_tenant", "tenant_id"))
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from datetime import datetime
 
-from sqlalchemy import delete, func, select, text, update
+from sqlalchemy import and_, delete, func, or_, select, text, update
 from sqlalchemy.orm import Session
 
 from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, Tenant, utcnow
@@ -123,13 +123,16 @@ class JobRepository(_Owned):
         self.session.flush()
         return job
 
-    def claim_next(self) -> Job | None:
-        """Atomically move the oldest queued job to running and return it.
+    def claim_next(self, owner: str, lease_until: datetime) -> Job | None:
+        """Atomically lease the oldest claimable job to ``owner`` and return it: a queued
+        job, or a running one whose lease has expired (its runner died).
 
         PostgreSQL: ``FOR UPDATE SKIP LOCKED`` lets several runners claim concurrently;
-        SQLite serializes writers, and the conditional UPDATE re-checks the status.
+        SQLite serializes writers, and the conditional UPDATE re-checks the condition.
         """
-        query = select(Job).where(Job.status == JOB_QUEUED).order_by(Job.created_at, Job.id).limit(1)
+        now = utcnow()
+        claimable = or_(Job.status == JOB_QUEUED, and_(Job.status == JOB_RUNNING, Job.lease_expires_at < now))
+        query = select(Job).where(claimable).order_by(Job.created_at, Job.id).limit(1)
         if self.session.bind.dialect.name == "postgresql":
             query = query.with_for_update(skip_locked=True)
         job = self.session.scalar(query)
@@ -137,8 +140,10 @@ class JobRepository(_Owned):
             return None
         claimed = self.session.execute(
             update(Job)
-            .where(Job.id == job.id, Job.status == JOB_QUEUED)
-            .values(status=JOB_RUNNING, started_at=utcnow(), attempts=Job.attempts + 1)
+            .where(Job.id == job.id, claimable)
+            .values(status=JOB_RUNNING, started_at=now, attempts=Job.attempts + 1, lease_owner=owner,
+                    lease_expires_at=lease_until)
+            .execution_options(synchronize_session=False)
         )
         if claimed.rowcount != 1:
             return None
@@ -146,26 +151,41 @@ class JobRepository(_Owned):
         self.session.refresh(job)
         return job
 
-    def requeue_unfinished(self) -> int:
-        """Jobs left running by a crash go back to the queue (called at start-up)."""
+    def renew_leases(self, owner: str, job_ids: list[str], lease_until: datetime) -> int:
+        """Extend the leases ``owner`` still holds on ``job_ids``."""
+        if not job_ids:
+            return 0
         result = self.session.execute(
-            update(Job).where(Job.status == JOB_RUNNING).values(status=JOB_QUEUED, started_at=None)
-        )
+            update(Job).where(Job.id.in_(job_ids), Job.lease_owner == owner, Job.status == JOB_RUNNING)
+            .values(lease_expires_at=lease_until).execution_options(synchronize_session=False))
         return result.rowcount or 0
 
-    def succeed(self, job_id: str, record_id: str, stage_seconds: dict) -> None:
-        self.session.execute(
-            update(Job)
-            .where(Job.id == job_id)
-            .values(status=JOB_SUCCEEDED, finished_at=utcnow(), record_id=record_id, stage_seconds=stage_seconds)
-        )
+    def release(self, job_id: str, owner: str) -> bool:
+        """Put a job whose fit was interrupted back in the queue (if ``owner`` holds it)."""
+        result = self.session.execute(
+            update(Job).where(Job.id == job_id, Job.lease_owner == owner, Job.status == JOB_RUNNING)
+            .values(status=JOB_QUEUED, started_at=None, lease_owner=None, lease_expires_at=None))
+        return result.rowcount == 1
 
-    def fail(self, job_id: str, code: str, detail: str) -> None:
-        self.session.execute(
+    def succeed(self, job_id: str, owner: str, record_id: str, stage_seconds: dict) -> bool:
+        """Finish a job ``owner`` still holds; False when another runner has taken it
+        over (the caller then rolls back its record: a job ends exactly once)."""
+        result = self.session.execute(
             update(Job)
-            .where(Job.id == job_id)
-            .values(status=JOB_FAILED, finished_at=utcnow(), error_code=code, error_detail=detail)
+            .where(Job.id == job_id, Job.lease_owner == owner, Job.status == JOB_RUNNING)
+            .values(status=JOB_SUCCEEDED, finished_at=utcnow(), record_id=record_id, stage_seconds=stage_seconds,
+                    lease_expires_at=None)
         )
+        return result.rowcount == 1
+
+    def fail(self, job_id: str, code: str, detail: str, owner: str | None = None) -> bool:
+        """Fail a job (one ``owner`` holds, when given)."""
+        query = update(Job).where(Job.id == job_id)
+        if owner is not None:
+            query = query.where(Job.lease_owner == owner, Job.status == JOB_RUNNING)
+        result = self.session.execute(query.values(status=JOB_FAILED, finished_at=utcnow(), error_code=code,
+                                                   error_detail=detail, lease_expires_at=None))
+        return result.rowcount == 1
 
     def count_by_status(self) -> dict[str, int]:
         rows = self.session.execute(select(Job.status, func.count()).group_by(Job.status)).all()

@@ -1,13 +1,28 @@
-"""The embedded job runner: a process pool fed from the jobs table.
+"""The embedded job runner: process pools fed from the jobs table.
 
 Jobs wait in the database as ``queued``.  A dispatcher task claims at most ``workers``
-of them at a time (queued -> running, atomically in the repository), runs
-:func:`app.services.fitting.fit_scan_file` in a worker process and stores the outcome
-(a record and ``succeeded``, or ``failed`` with the reason).  At start-up, jobs left
-``running`` by a crash are put back in the queue, so nothing accepted is ever lost.
+of them at a time and runs :func:`app.services.fitting.fit_scan_file` in the *fit pool*;
+upload checks run in a *check pool* of their own, so that neither blocks the other nor
+the event loop.
 
-The same pool also runs the quick acceptance check of uploads, so neither blocks the
-event loop.
+Crash safety (every accepted job ends exactly once, as a record or a failure):
+
+- **Leases.**  A claim leases the job to this runner (``owner``: host, pid and a random
+  tag) for ``lease_s``; the dispatcher renews the leases of its running jobs every
+  ``lease_s / 3``.  Only a job whose lease has expired - its runner died - is claimed by
+  another runner; a second runner started beside a live one takes nothing of its.
+  A job is finished only by the runner that holds its lease, in the same transaction as
+  its record, so a runner whose lease was taken over cannot store a second record.
+- **Dead workers.**  A fit whose worker process dies (killed, out of memory) goes back to
+  the queue and is retried, up to ``max_attempts`` claims in all; then it fails with the
+  reason.  A fit that fails on its input (FitFailure) is not retried.
+- **Time limit.**  A fit over ``job_timeout_s`` fails with ``timeout`` (a fit that slow
+  would be as slow again), and the fit pool's processes are killed - a process pool
+  cannot stop one task - so the slot is free; the other fits that die with them are
+  retried.
+- **Broken pools.**  A pool whose process died is replaced, once per breakage (a
+  generation counter: concurrent failures replace it once), and the upload check that
+  met it is run again once.  :meth:`problem` tells ``/readyz`` when the runner cannot run.
 """
 
 from __future__ import annotations
@@ -15,14 +30,21 @@ from __future__ import annotations
 import asyncio
 import logging
 import multiprocessing
+import os
+import signal
+import socket
 import time
-from typing import TYPE_CHECKING
+import uuid
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
+from datetime import timedelta
+from typing import TYPE_CHECKING
 
 from sqlalchemy.orm import Session, sessionmaker
 
+from app.db.models import utcnow
 from app.db.repositories import JobRepository, RecordRepository, ScanRepository
+from app.errors import Unavailable
 from app.geometry.errors import FitFailure
 from app.services.fitting import fit_scan_file
 from app.services.records import record_etag
@@ -34,28 +56,74 @@ if TYPE_CHECKING:
 log = logging.getLogger("calf_nurbs.runner")
 
 
+class _Pool:
+    """A process pool that is replaced when one of its processes dies."""
+
+    def __init__(self, name: str, workers: int):
+        self.name = name
+        self.workers = workers
+        self.generation = 0
+        self.executor: ProcessPoolExecutor | None = None
+
+    def start(self) -> None:
+        self.executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+
+    def replace(self, generation: int) -> None:
+        """Replace the pool if it is still the ``generation`` that broke."""
+        if generation != self.generation:
+            return
+        self.kill()
+        self.generation += 1
+        self.start()
+        log.warning("the %s pool was replaced (a worker process died or was stopped)", self.name)
+
+    def kill(self) -> None:
+        """Stop the pool now, its running tasks with it (their futures break)."""
+        executor, self.executor = self.executor, None
+        if executor is None:
+            return
+        for process in list((getattr(executor, "_processes", None) or {}).values()):
+            try:
+                os.kill(process.pid, signal.SIGKILL)
+            except (ProcessLookupError, OSError):
+                pass
+        executor.shutdown(wait=False, cancel_futures=True)
+
+    def pids(self) -> list[int]:
+        return [p.pid for p in (getattr(self.executor, "_processes", None) or {}).values()]
+
+    async def run(self, fn, *args, timeout: float | None = None):
+        if self.executor is None:
+            raise Unavailable("the fitting workers are not running", code="runner_unavailable")
+        future = asyncio.get_running_loop().run_in_executor(self.executor, fn, *args)
+        return await asyncio.wait_for(future, timeout) if timeout else await future
+
+
 class EmbeddedRunner:
     def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True,
-                 metrics: Metrics | None = None):
+                 metrics: Metrics | None = None, lease_s: float = 60.0, max_attempts: int = 3):
         self.sessions = sessions
-        self.metrics = metrics
         self.store = store
         self.workers = workers
         self.job_timeout_s = job_timeout_s
         self.run_jobs = run_jobs
-        self.pool: ProcessPoolExecutor | None = None
+        self.metrics = metrics
+        self.lease_s = lease_s
+        self.max_attempts = max_attempts
+        self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self.check_pool = _Pool("check", workers)
+        self.fit_pool = _Pool("fit", workers)
         self._wakeup: asyncio.Event | None = None
         self._dispatcher: asyncio.Task | None = None
-        self._running: set[asyncio.Task] = set()
+        self._running: dict[str, asyncio.Task] = {}
+        self._renewed = 0.0
 
     # ------------------------------------------------------------------ lifecycle
     async def start(self) -> None:
-        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        self.check_pool.start()
         self._wakeup = asyncio.Event()
         if self.run_jobs:
-            requeued = await asyncio.to_thread(self._requeue)
-            if requeued:
-                log.warning("requeued %d job(s) left running by a previous process", requeued)
+            self.fit_pool.start()
             self._dispatcher = asyncio.create_task(self._dispatch_forever(), name="calf-job-dispatcher")
 
     async def stop(self) -> None:
@@ -65,11 +133,26 @@ class EmbeddedRunner:
                 await self._dispatcher
             except (asyncio.CancelledError, Exception):
                 pass
-        for task in list(self._running):
+        for task in list(self._running.values()):
             task.cancel()
-        if self.pool is not None:
-            self.pool.shutdown(wait=True, cancel_futures=True)
-            self.pool = None
+        # jobs still running stay leased to this runner and are taken over when the
+        # lease expires; a clean stop hands them back at once
+        if self._running:
+            await asyncio.to_thread(self._release_all, list(self._running))
+        for pool in (self.check_pool, self.fit_pool):
+            if pool.executor is not None:
+                pool.executor.shutdown(wait=True, cancel_futures=True)
+                pool.executor = None
+
+    def problem(self) -> str | None:
+        """Why the runner cannot run jobs or checks now, or None."""
+        if self.check_pool.executor is None:
+            return "the upload check workers are not running"
+        if self.run_jobs and (self._dispatcher is None or self._dispatcher.done()):
+            return "the job dispatcher has stopped"
+        if self.run_jobs and self.fit_pool.executor is None:
+            return "the fitting workers are not running"
+        return None
 
     def notify(self) -> None:
         """A job was queued: look at the queue now."""
@@ -77,12 +160,20 @@ class EmbeddedRunner:
             self._wakeup.set()
 
     async def run_in_worker(self, fn, *args, timeout: float | None = None):
-        """Run a picklable function in the pool (used for upload checks)."""
-        if self.pool is None:
-            raise RuntimeError("the runner is not started")
-        loop = asyncio.get_running_loop()
-        future = loop.run_in_executor(self.pool, fn, *args)
-        return await asyncio.wait_for(future, timeout) if timeout else await future
+        """Run a picklable function in the check pool (upload checks).  A broken pool is
+        replaced and the call made once more; a second breakage answers 503."""
+        for attempt in (1, 2):
+            generation = self.check_pool.generation
+            try:
+                return await self.check_pool.run(fn, *args, timeout=timeout)
+            except BrokenProcessPool:
+                self.check_pool.replace(generation)
+                if attempt == 2:
+                    raise Unavailable("the upload check's worker process stopped twice; try again in a moment",
+                                      code="runner_unavailable") from None
+            except asyncio.TimeoutError:
+                self.check_pool.replace(generation)  # the slow check's process must not keep its slot
+                raise
 
     async def idle(self, timeout: float = 60.0) -> None:
         """Wait until no job is queued or running (tests and benchmarks)."""
@@ -94,22 +185,40 @@ class EmbeddedRunner:
             await asyncio.sleep(0.05)
         raise TimeoutError("jobs still pending")
 
-    # ------------------------------------------------------------------ internals
-    def _requeue(self) -> int:
-        with self.sessions() as session, session.begin():
-            return JobRepository(session).requeue_unfinished()
+    # ------------------------------------------------------------------ database
+    def _lease_until(self):
+        return utcnow() + timedelta(seconds=self.lease_s)
 
     def _counts(self) -> dict:
         with self.sessions() as session:
             return JobRepository(session).count_by_status()
 
-    def _claim(self) -> tuple[str, str, str, dict, dict | None] | None:
+    def _claim(self) -> tuple[str, str, str, dict, dict | None] | None | bool:
+        """The next job leased to this runner; None when the queue is empty; False when a
+        claimed job had used up its attempts (it is failed; claim again)."""
         with self.sessions() as session, session.begin():
-            job = JobRepository(session).claim_next()
+            jobs = JobRepository(session)
+            job = jobs.claim_next(self.owner, self._lease_until())
             if job is None:
                 return None
+            if job.attempts > self.max_attempts:
+                jobs.fail(job.id, "worker_crashed", f"the fit was interrupted {job.attempts - 1} times (its worker "
+                          "process died or was stopped); it is not tried again", owner=self.owner)
+                return False
             scan = ScanRepository(session).get(job.scan_id)
             return job.id, str(self.store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement
+
+    def _renew(self) -> None:
+        with self.sessions() as session, session.begin():
+            JobRepository(session).renew_leases(self.owner, list(self._running), self._lease_until())
+
+    def _release(self, job_id: str) -> None:
+        with self.sessions() as session, session.begin():
+            JobRepository(session).release(job_id, self.owner)
+
+    def _release_all(self, job_ids: list[str]) -> None:
+        for job_id in job_ids:
+            self._release(job_id)
 
     def _finish_success(self, job_id: str, outcome: dict) -> None:
         with self.sessions() as session, session.begin():
@@ -117,60 +226,72 @@ class EmbeddedRunner:
             job = jobs.get(job_id)
             body = outcome["record"]
             record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id, owner=job.tenant_id)
-            jobs.succeed(job_id, record.id, outcome["stage_seconds"])
+            if not jobs.succeed(job_id, self.owner, record.id, outcome["stage_seconds"]):
+                session.rollback()  # the lease was taken over: that runner ends the job
+                log.warning("job %s was taken over by another runner; its record is not stored twice", job_id)
 
     def _finish_failure(self, job_id: str, code: str, detail: str) -> None:
         with self.sessions() as session, session.begin():
-            JobRepository(session).fail(job_id, code, detail)
+            JobRepository(session).fail(job_id, code, detail, owner=self.owner)
 
+    # ------------------------------------------------------------------ dispatch
     async def _dispatch_forever(self) -> None:
         assert self._wakeup is not None
         while True:
             try:
+                if self._running and time.monotonic() - self._renewed > self.lease_s / 3:
+                    await asyncio.to_thread(self._renew)
+                    self._renewed = time.monotonic()
                 while len(self._running) < self.workers:
                     claimed = await asyncio.to_thread(self._claim)
                     if claimed is None:
                         break
+                    if claimed is False:
+                        continue
+                    job_id = claimed[0]
                     task = asyncio.create_task(self._run_job(*claimed))
-                    self._running.add(task)
-                    task.add_done_callback(self._job_done)
+                    self._running[job_id] = task
+                    task.add_done_callback(lambda _t, j=job_id: self._job_done(j))
             except Exception:  # a database hiccup must not kill the dispatcher
                 log.exception("job dispatch failed; retrying")
                 await asyncio.sleep(1.0)
             self._wakeup.clear()
             try:
-                await asyncio.wait_for(self._wakeup.wait(), timeout=2.0)
+                await asyncio.wait_for(self._wakeup.wait(), timeout=min(2.0, self.lease_s / 3))
             except asyncio.TimeoutError:
                 pass
 
-    def _job_done(self, task: asyncio.Task) -> None:
-        self._running.discard(task)
+    def _job_done(self, job_id: str) -> None:
+        self._running.pop(job_id, None)
         if self._wakeup is not None:
             self._wakeup.set()
 
     async def _run_job(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> None:
         started = time.perf_counter()
         reason = await self._fit_and_store(job_id, path, file_format, options, placement)
-        if self.metrics is not None:
+        if self.metrics is not None and reason != "retried":
             self.metrics.job_ended(time.perf_counter() - started, reason)
 
     async def _fit_and_store(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> str | None:
-        """Fit one claimed job and store its outcome; the failure code, or None."""
+        """Fit one claimed job and store its outcome; the failure code, None for a
+        record, or "retried" when the job went back to the queue."""
+        generation = self.fit_pool.generation
         try:
-            outcome = await self.run_in_worker(fit_scan_file, path, file_format, options, placement, timeout=self.job_timeout_s)
+            outcome = await self.fit_pool.run(fit_scan_file, path, file_format, options, placement, timeout=self.job_timeout_s)
         except FitFailure as failure:
             await asyncio.to_thread(self._finish_failure, job_id, failure.reason.value, failure.detail)
             return failure.reason.value
         except asyncio.TimeoutError:
+            self.fit_pool.replace(generation)  # its process is killed: the slot is free again
             await asyncio.to_thread(self._finish_failure, job_id, "timeout", f"the fit took longer than {self.job_timeout_s:g} s")
             return "timeout"
         except BrokenProcessPool:
-            log.exception("worker process died during job %s", job_id)
-            await asyncio.to_thread(self._finish_failure, job_id, "worker_crashed", "the fitting worker process died")
-            self._restart_pool()
-            return "worker_crashed"
+            log.warning("the worker process of job %s died; the job goes back to the queue", job_id)
+            self.fit_pool.replace(generation)
+            await asyncio.to_thread(self._release, job_id)
+            return "retried"
         except asyncio.CancelledError:
-            raise  # shutting down: the job stays running and is requeued at the next start
+            raise  # shutting down: stop() hands the job back
         except Exception:  # a bug: record it on the job rather than lose it
             log.exception("job %s failed unexpectedly", job_id)
             await asyncio.to_thread(self._finish_failure, job_id, "internal_error",
@@ -178,8 +299,3 @@ class EmbeddedRunner:
             return "internal_error"
         await asyncio.to_thread(self._finish_success, job_id, outcome)
         return None
-
-    def _restart_pool(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(wait=False, cancel_futures=True)
-        self.pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))

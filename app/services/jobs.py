@@ -42,6 +42,8 @@ class JobService:
                     if newly_stored:
                         store.remove(upload.sha256)
                     raise
+        elif not store.exists(upload.sha256):
+            store.commit(upload.temp_path, upload.sha256)  # the stored file went missing: these bytes restore it
         else:
             upload.discard()
         job = self.jobs.add(scan.id, options, placement)

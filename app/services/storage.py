@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import time
 from pathlib import Path
 
 
@@ -39,6 +40,20 @@ class ScanStore:
         os.chmod(temp, 0o440)
         os.replace(temp, final)
         return final, True
+
+    def clean_temp(self, older_than_s: float) -> int:
+        """Remove temporary upload files older than ``older_than_s`` (left by a process
+        that died while receiving); returns how many."""
+        cutoff = time.time() - older_than_s
+        removed = 0
+        for path in self.tmp.glob("upload-*"):
+            try:
+                if path.stat().st_mtime < cutoff:
+                    path.unlink()
+                    removed += 1
+            except FileNotFoundError:
+                pass
+        return removed
 
     def remove(self, sha256: str) -> None:
         """Undo a commit whose database row could not be written."""
