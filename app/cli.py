@@ -160,6 +160,14 @@ def _cmd_worker(args: argparse.Namespace) -> int:
     settings = get_settings()
     configure_logging(settings.log_level, json=settings.log_json)
     upgrade_to_head(settings.resolved_database_url)
+    if settings.broker_url:
+        # scale-out: Dramatiq worker processes (one fit each) on the broker's queue
+        from dramatiq.cli import main as dramatiq_main, make_argument_parser
+
+        from app.jobs.dramatiq_queue import QUEUE
+
+        return dramatiq_main(make_argument_parser().parse_args(
+            ["app.jobs.dramatiq_queue", "--processes", str(settings.workers), "--threads", "1", "--queues", QUEUE]))
 
     async def run() -> None:
         stop = asyncio.Event()

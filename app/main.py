@@ -37,6 +37,15 @@ Every error is an RFC 9457 `application/problem+json` document whose `type` ends
 stable code. Lengths are millimetres."""
 
 
+def _broker_send(settings: Settings):
+    """Dramatiq's send, when a broker is configured (imported only then)."""
+    if not settings.broker_url:
+        return None
+    from app.jobs import dramatiq_queue
+
+    return dramatiq_queue.send
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     settings = settings or get_settings()
 
@@ -50,7 +59,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
                                           settings.run_jobs, metrics=app.state.metrics, lease_s=settings.job_lease_s,
-                                          max_attempts=settings.job_max_attempts)
+                                          max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings))
         removed = app.state.store.clean_temp(TEMP_MAX_AGE_S)
         if removed:
             log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)

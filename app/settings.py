@@ -31,6 +31,11 @@ class Settings(BaseSettings):
                          whose runner died is taken by another after this
     CALF_JOB_MAX_ATTEMPTS
                          claims of a job whose worker keeps dying before it fails (3)
+    CALF_BROKER_URL      redis://host:6379/0: fitting jobs go through Dramatiq on Redis and
+                         `calf-nurbs worker` runs Dramatiq workers (none: the embedded runner)
+    CALF_BROKER_HEARTBEAT_S
+                         a Dramatiq worker silent this long is dead: its message is
+                         delivered again (60)
     CALF_RUN_JOBS        false: this process accepts uploads but fits nothing (an API
                          container whose jobs a `calf-nurbs worker` process runs)
     CALF_CORS_ORIGINS    JSON list of the web origins allowed to call the API from a
@@ -62,6 +67,9 @@ class Settings(BaseSettings):
     validation_timeout_s: float = Field(60.0, gt=0)
     job_timeout_s: float = Field(600.0, gt=0)
     job_lease_s: float = Field(60.0, ge=1.0)
+    broker_url: str | None = None
+    broker_heartbeat_s: float = Field(60.0, ge=1.0)
+    broker_namespace: str = "calf-nurbs"
     job_max_attempts: int = Field(3, ge=1, le=20)
     host: str = "127.0.0.1"
     cors_origins: list[str] = Field(default_factory=list)

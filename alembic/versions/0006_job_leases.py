@@ -2,8 +2,8 @@
 
 A runner that claims a job holds it for CALF_JOB_LEASE_S and renews the lease while the
 fit runs; only a job whose lease has expired (its runner died) is taken by another.
-Jobs left running by a runner before this revision get an expired lease, so the next
-runner takes them.
+Jobs left running by a runner before this revision have no lease, which counts as
+expired: the next runner takes them.
 
 Revision ID: 0006
 Revises: 0005

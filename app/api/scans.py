@@ -125,7 +125,7 @@ async def upload_scan(
         except BaseException:
             upload.discard()
             raise
-        runner.notify()
+        await runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
         body = jsonable_encoder(job_view(job, scan, reused))
         return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
 

@@ -123,16 +123,21 @@ class JobRepository(_Owned):
         self.session.flush()
         return job
 
-    def claim_next(self, owner: str, lease_until: datetime) -> Job | None:
-        """Atomically lease the oldest claimable job to ``owner`` and return it: a queued
-        job, or a running one whose lease has expired (its runner died).
+    def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None) -> Job | None:
+        """Atomically lease the oldest claimable job (or the job ``job_id``) to ``owner``
+        and return it: a queued job, or a running one whose lease has expired (its
+        runner died).
 
         PostgreSQL: ``FOR UPDATE SKIP LOCKED`` lets several runners claim concurrently;
         SQLite serializes writers, and the conditional UPDATE re-checks the condition.
         """
         now = utcnow()
-        claimable = or_(Job.status == JOB_QUEUED, and_(Job.status == JOB_RUNNING, Job.lease_expires_at < now))
+        # a running job without a lease was left by a runner from before leases: expired
+        lapsed = or_(Job.lease_expires_at.is_(None), Job.lease_expires_at < now)
+        claimable = or_(Job.status == JOB_QUEUED, and_(Job.status == JOB_RUNNING, lapsed))
         query = select(Job).where(claimable).order_by(Job.created_at, Job.id).limit(1)
+        if job_id is not None:
+            query = query.where(Job.id == job_id)
         if self.session.bind.dialect.name == "postgresql":
             query = query.with_for_update(skip_locked=True)
         job = self.session.scalar(query)
@@ -150,6 +155,9 @@ class JobRepository(_Owned):
         self.session.flush()
         self.session.refresh(job)
         return job
+
+    def queued_ids(self) -> list[str]:
+        return list(self.session.scalars(select(Job.id).where(Job.status == JOB_QUEUED).order_by(Job.created_at, Job.id)))
 
     def renew_leases(self, owner: str, job_ids: list[str], lease_until: datetime) -> int:
         """Extend the leases ``owner`` still holds on ``job_ids``."""

@@ -28,6 +28,7 @@ Crash safety (every accepted job ends exactly once, as a record or a failure):
 from __future__ import annotations
 
 import asyncio
+import functools
 import logging
 import multiprocessing
 import os
@@ -35,19 +36,19 @@ import signal
 import socket
 import time
 import uuid
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from datetime import timedelta
 from typing import TYPE_CHECKING
 
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.models import utcnow
-from app.db.repositories import JobRepository, RecordRepository, ScanRepository
+from app.db.repositories import JobRepository
 from app.errors import Unavailable
 from app.geometry.errors import FitFailure
+from app.jobs import lifecycle
+from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL, timeout_detail
 from app.services.fitting import fit_scan_file
-from app.services.records import record_etag
 from app.services.storage import ScanStore
 
 if TYPE_CHECKING:
@@ -101,7 +102,8 @@ class _Pool:
 
 class EmbeddedRunner:
     def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True,
-                 metrics: Metrics | None = None, lease_s: float = 60.0, max_attempts: int = 3):
+                 metrics: Metrics | None = None, lease_s: float = 60.0, max_attempts: int = 3,
+                 enqueue: Callable[[str], None] | None = None):
         self.sessions = sessions
         self.store = store
         self.workers = workers
@@ -110,6 +112,11 @@ class EmbeddedRunner:
         self.metrics = metrics
         self.lease_s = lease_s
         self.max_attempts = max_attempts
+        #: broker mode (app.jobs.dramatiq_queue.send): fits are sent to Dramatiq workers,
+        #: this process only checks uploads
+        self.enqueue = enqueue
+        if enqueue is not None:
+            self.run_jobs = False
         self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
         self.check_pool = _Pool("check", workers)
         self.fit_pool = _Pool("fit", workers)
@@ -122,6 +129,11 @@ class EmbeddedRunner:
     async def start(self) -> None:
         self.check_pool.start()
         self._wakeup = asyncio.Event()
+        if self.enqueue is not None:
+            # queued jobs whose message was never sent (the process died between the
+            # commit and the send): send them now; a duplicate message ends its job once
+            for job_id in await asyncio.to_thread(lifecycle.queued_job_ids, self.sessions):
+                await asyncio.to_thread(self.enqueue, job_id)
         if self.run_jobs:
             self.fit_pool.start()
             self._dispatcher = asyncio.create_task(self._dispatch_forever(), name="calf-job-dispatcher")
@@ -159,6 +171,13 @@ class EmbeddedRunner:
         if self._wakeup is not None:
             self._wakeup.set()
 
+    async def submitted(self, job_id: str) -> None:
+        """A job was committed to the queue: send it to the broker, or wake the dispatcher."""
+        if self.enqueue is not None:
+            await asyncio.to_thread(self.enqueue, job_id)
+        else:
+            self.notify()
+
     async def run_in_worker(self, fn, *args, timeout: float | None = None):
         """Run a picklable function in the check pool (upload checks).  A broken pool is
         replaced and the call made once more; a second breakage answers 503."""
@@ -186,53 +205,16 @@ class EmbeddedRunner:
         raise TimeoutError("jobs still pending")
 
     # ------------------------------------------------------------------ database
-    def _lease_until(self):
-        return utcnow() + timedelta(seconds=self.lease_s)
-
     def _counts(self) -> dict:
         with self.sessions() as session:
             return JobRepository(session).count_by_status()
 
-    def _claim(self) -> tuple[str, str, str, dict, dict | None] | None | bool:
-        """The next job leased to this runner; None when the queue is empty; False when a
-        claimed job had used up its attempts (it is failed; claim again)."""
-        with self.sessions() as session, session.begin():
-            jobs = JobRepository(session)
-            job = jobs.claim_next(self.owner, self._lease_until())
-            if job is None:
-                return None
-            if job.attempts > self.max_attempts:
-                jobs.fail(job.id, "worker_crashed", f"the fit was interrupted {job.attempts - 1} times (its worker "
-                          "process died or was stopped); it is not tried again", owner=self.owner)
-                return False
-            scan = ScanRepository(session).get(job.scan_id)
-            return job.id, str(self.store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement
-
-    def _renew(self) -> None:
-        with self.sessions() as session, session.begin():
-            JobRepository(session).renew_leases(self.owner, list(self._running), self._lease_until())
-
-    def _release(self, job_id: str) -> None:
-        with self.sessions() as session, session.begin():
-            JobRepository(session).release(job_id, self.owner)
+    def _claim(self):
+        return lifecycle.claim(self.sessions, self.store, self.owner, self.lease_s, self.max_attempts)
 
     def _release_all(self, job_ids: list[str]) -> None:
         for job_id in job_ids:
-            self._release(job_id)
-
-    def _finish_success(self, job_id: str, outcome: dict) -> None:
-        with self.sessions() as session, session.begin():
-            jobs = JobRepository(session)
-            job = jobs.get(job_id)
-            body = outcome["record"]
-            record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id, owner=job.tenant_id)
-            if not jobs.succeed(job_id, self.owner, record.id, outcome["stage_seconds"]):
-                session.rollback()  # the lease was taken over: that runner ends the job
-                log.warning("job %s was taken over by another runner; its record is not stored twice", job_id)
-
-    def _finish_failure(self, job_id: str, code: str, detail: str) -> None:
-        with self.sessions() as session, session.begin():
-            JobRepository(session).fail(job_id, code, detail, owner=self.owner)
+            lifecycle.release(self.sessions, self.owner, job_id)
 
     # ------------------------------------------------------------------ dispatch
     async def _dispatch_forever(self) -> None:
@@ -240,16 +222,16 @@ class EmbeddedRunner:
         while True:
             try:
                 if self._running and time.monotonic() - self._renewed > self.lease_s / 3:
-                    await asyncio.to_thread(self._renew)
+                    await asyncio.to_thread(lifecycle.renew, self.sessions, self.owner, list(self._running), self.lease_s)
                     self._renewed = time.monotonic()
                 while len(self._running) < self.workers:
                     claimed = await asyncio.to_thread(self._claim)
                     if claimed is None:
                         break
-                    if claimed is False:
+                    if claimed == lifecycle.EXHAUSTED:
                         continue
-                    job_id = claimed[0]
-                    task = asyncio.create_task(self._run_job(*claimed))
+                    job_id = claimed.job_id
+                    task = asyncio.create_task(self._run_job(claimed))
                     self._running[job_id] = task
                     task.add_done_callback(lambda _t, j=job_id: self._job_done(j))
             except Exception:  # a database hiccup must not kill the dispatcher
@@ -266,36 +248,37 @@ class EmbeddedRunner:
         if self._wakeup is not None:
             self._wakeup.set()
 
-    async def _run_job(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> None:
+    async def _run_job(self, job: lifecycle.ClaimedJob) -> None:
         started = time.perf_counter()
-        reason = await self._fit_and_store(job_id, path, file_format, options, placement)
+        reason = await self._fit_and_store(job)
         if self.metrics is not None and reason != "retried":
             self.metrics.job_ended(time.perf_counter() - started, reason)
 
-    async def _fit_and_store(self, job_id: str, path: str, file_format: str, options: dict, placement: dict | None) -> str | None:
+    async def _fit_and_store(self, job: lifecycle.ClaimedJob) -> str | None:
         """Fit one claimed job and store its outcome; the failure code, None for a
         record, or "retried" when the job went back to the queue."""
         generation = self.fit_pool.generation
+        fail = functools.partial(asyncio.to_thread, lifecycle.fail, self.sessions, self.owner, job.job_id)
         try:
-            outcome = await self.fit_pool.run(fit_scan_file, path, file_format, options, placement, timeout=self.job_timeout_s)
+            outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
+                                              timeout=self.job_timeout_s)
         except FitFailure as failure:
-            await asyncio.to_thread(self._finish_failure, job_id, failure.reason.value, failure.detail)
+            await fail(failure.reason.value, failure.detail)
             return failure.reason.value
         except asyncio.TimeoutError:
             self.fit_pool.replace(generation)  # its process is killed: the slot is free again
-            await asyncio.to_thread(self._finish_failure, job_id, "timeout", f"the fit took longer than {self.job_timeout_s:g} s")
+            await fail("timeout", timeout_detail(self.job_timeout_s))
             return "timeout"
         except BrokenProcessPool:
-            log.warning("the worker process of job %s died; the job goes back to the queue", job_id)
+            log.warning("the worker process of job %s died; the job goes back to the queue", job.job_id)
             self.fit_pool.replace(generation)
-            await asyncio.to_thread(self._release, job_id)
+            await asyncio.to_thread(lifecycle.release, self.sessions, self.owner, job.job_id)
             return "retried"
         except asyncio.CancelledError:
             raise  # shutting down: stop() hands the job back
         except Exception:  # a bug: record it on the job rather than lose it
-            log.exception("job %s failed unexpectedly", job_id)
-            await asyncio.to_thread(self._finish_failure, job_id, "internal_error",
-                                    "the fit failed on an unexpected error; it has been logged for the service's operators")
+            log.exception("job %s failed unexpectedly", job.job_id)
+            await fail("internal_error", INTERNAL_ERROR_DETAIL)
             return "internal_error"
-        await asyncio.to_thread(self._finish_success, job_id, outcome)
+        await asyncio.to_thread(lifecycle.succeed, self.sessions, self.owner, job.job_id, outcome)
         return None
