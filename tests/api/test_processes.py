@@ -90,7 +90,7 @@ def test_serve_migrates_an_empty_data_dir_then_fits(tmp_path):
 def postgres_url():
     """A fresh database on the machine's PostgreSQL server, dropped afterwards."""
     name = f"calf_test_{uuid.uuid4().hex[:10]}"
-    admin = create_engine(PG_ADMIN_URL, isolation_level="AUTOCOMMIT")
+    admin = create_engine(PG_ADMIN_URL, isolation_level="AUTOCOMMIT", pool_pre_ping=True)  # survives a server restart
     try:
         with admin.connect() as conn:
             conn.execute(text(f'CREATE DATABASE "{name}"'))
