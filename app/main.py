@@ -21,8 +21,8 @@ from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
 
 log = logging.getLogger("calf_nurbs")
-#: a temporary upload file older than this at start-up was left by a process that died
-#: (an upload in progress in another API process sharing the directory is younger)
+#: at start-up, temporary uploads of dead processes of this host are removed, and any
+#: older than this (another host's process cannot be asked; an upload takes minutes)
 TEMP_MAX_AGE_S = 3600.0
 
 DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf

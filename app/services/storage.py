@@ -8,9 +8,25 @@ stored once, however often they are uploaded; a stored file is never overwritten
 from __future__ import annotations
 
 import os
+import socket
 import tempfile
 import time
 from pathlib import Path
+
+
+_HOST = socket.gethostname().replace("-", "_")
+
+
+def _running(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 class ScanStore:
@@ -24,7 +40,9 @@ class ScanStore:
         return self.root / sha256[:2] / sha256
 
     def new_temp(self) -> tuple[int, Path]:
-        fd, name = tempfile.mkstemp(prefix="upload-", dir=self.tmp)
+        """A temporary file for an upload being received, named after the process that
+        receives it (``upload-<host>-<pid>-...``), so that a crash's leftovers are known."""
+        fd, name = tempfile.mkstemp(prefix=f"upload-{_HOST}-{os.getpid()}-", dir=self.tmp)
         return fd, Path(name)
 
     def exists(self, sha256: str) -> bool:
@@ -42,13 +60,17 @@ class ScanStore:
         return final, True
 
     def clean_temp(self, older_than_s: float) -> int:
-        """Remove temporary upload files older than ``older_than_s`` (left by a process
-        that died while receiving); returns how many."""
+        """Remove the temporary upload files a crash left behind; returns how many: those
+        of a process of this host that is no longer running, and any older than
+        ``older_than_s`` (another host's, whose processes cannot be asked; an upload
+        takes minutes at most)."""
         cutoff = time.time() - older_than_s
         removed = 0
         for path in self.tmp.glob("upload-*"):
+            parts = path.name.split("-")
+            ours = len(parts) >= 4 and parts[1] == _HOST and parts[2].isdigit()
             try:
-                if path.stat().st_mtime < cutoff:
+                if (ours and not _running(int(parts[2]))) or path.stat().st_mtime < cutoff:
                     path.unlink()
                     removed += 1
             except FileNotFoundError:

@@ -156,16 +156,26 @@ def test_readyz_reports_a_runner_that_cannot_run_jobs(tmp_path):
         assert response.status_code == 503 and response.json()["code"] == "runner_unavailable"
 
 
-def test_old_temporary_uploads_are_removed_at_start_up(tmp_path):
+def test_temporary_uploads_left_by_a_crash_are_removed_at_start_up(tmp_path):
+    import socket
+    import subprocess
+    import sys
+
     settings = _settings(tmp_path)
     settings.tmp_dir.mkdir(parents=True, exist_ok=True)
-    old, fresh = settings.tmp_dir / "upload-left-by-a-crash", settings.tmp_dir / "upload-in-progress"
-    old.write_bytes(b"half a scan")
-    fresh.write_bytes(b"another process's upload")
+    host = socket.gethostname().replace("-", "_")
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True).stdout.strip()
+    crashed = settings.tmp_dir / f"upload-{host}-{dead}-x1"  # its process is gone
+    old = settings.tmp_dir / "upload-otherhost-123-x2"
+    live = settings.tmp_dir / f"upload-{host}-{os.getppid()}-x3"  # a running process's upload in progress
+    elsewhere = settings.tmp_dir / "upload-otherhost-456-x4"  # another host's, recent
+    for path in (crashed, old, live, elsewhere):
+        path.write_bytes(b"part of a scan")
     two_hours_ago = time.time() - 7200
     os.utime(old, (two_hours_ago, two_hours_ago))
     with TestClient(create_app(settings)):
-        assert not old.exists() and fresh.exists()
+        assert not crashed.exists() and not old.exists()
+        assert live.exists() and elsewhere.exists()
 
 
 def test_re_uploading_the_same_bytes_restores_a_missing_scan_file(tmp_path):

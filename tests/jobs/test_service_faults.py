@@ -85,6 +85,7 @@ def test_the_api_killed_during_a_burst_of_uploads_loses_and_doubles_nothing(tmp_
     engine.dispose()
     assert per_job[0] == per_job[1] == records  # one record per succeeded job, none extra
     assert unfinished == 0  # jobs accepted without their 202 reaching the client end too
+    assert not any((tmp_path / "var" / "tmp").iterdir())  # uploads cut off by the kill: cleaned at restart
 
 
 def _pg_cluster() -> tuple[str, str] | None:
