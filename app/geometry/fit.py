@@ -24,7 +24,6 @@ from app.geometry.landmarks import (
     Landmark,
     Landmarks,
     b1_height,
-    find_feature_heights,
     layer_heights,
 )
 from app.geometry.nurbs import NurbsSurface, surface_from_layers

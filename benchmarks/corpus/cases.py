@@ -13,7 +13,6 @@ in the scan, else the failure reason a correct service gives.
 
 from __future__ import annotations
 
-import io
 from dataclasses import dataclass, field
 
 import numpy as np

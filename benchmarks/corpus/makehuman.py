@@ -224,7 +224,6 @@ def sized_legs(subject: dict, rng: np.random.Generator, knee_flexion_deg: float 
             for name in (f"{prefix}-ankle", f"{prefix}-foot-1", f"{prefix}-foot-2"):
                 joints[name] = rotate_below(joints[name][None], np.ones(1, bool), knee, knee_flexion_deg, 45.0)[0]
         if plantar_flexion_deg:
-            ankle_c = joints[f"{prefix}-ankle"]
             # the foot turns about the ankle joint: the blend runs along the shank (local y)
             skin = _plantar_flex(skin, leg, joints, prefix, plantar_flexion_deg)
     faces = z["faces"].astype(np.int64)
