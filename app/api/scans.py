@@ -130,5 +130,9 @@ async def upload_scan(
         return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
 
     content = {"sha256": upload.sha256, "format": upload.file_format, "options": options}
-    return await answer_once(request, session, principal, idempotency, "upload_scan", content, check_and_queue,
-                             on_replay=upload.discard)
+    try:
+        return await answer_once(request, session, principal, idempotency, "upload_scan", content, check_and_queue,
+                                 on_replay=upload.discard)
+    except BaseException:  # a 409 for the key, or a failed check: the received file goes
+        upload.discard()
+        raise

@@ -60,6 +60,8 @@ def test_an_upload_retried_with_its_key_gets_the_same_job(service):
     assert _upload(client, keys["clinic-a"], "upload-7f3a", points=15).json()["code"] == "idempotency_key_reused"
     other_bytes = _upload(client, keys["clinic-a"], "upload-7f3a", data=LEG.read_bytes() + b"\0")
     assert other_bytes.status_code == 409 and other_bytes.json()["code"] == "idempotency_key_reused"
+    settings = client.app.state.settings
+    assert not any(settings.tmp_dir.iterdir())  # neither a replay nor a 409 leaves its upload behind
     # another clinic's key space is its own
     theirs = _upload(client, keys["clinic-b"], "upload-7f3a")
     assert theirs.status_code == 202 and theirs.json()["id"] != first.json()["id"]
