@@ -235,10 +235,14 @@ def _minimum_reached_at_edge(heights: np.ndarray, raw: np.ndarray, edge: float, 
     near = (x >= 0) & (x <= EDGE_FIT_MM) & np.isfinite(raw)
     if near.sum() < 5:
         return False
-    c, b, _ = np.polyfit(x[near], raw[near], 2)
+    c, b, a = np.polyfit(x[near], raw[near], 2)
     if b <= 0:
         return True
-    return bool(c > 0 and -b / (2 * c) >= -EDGE_REACH_MM)
+    if c <= 0:
+        return False
+    # the vertex is near enough, or so shallow below the edge girth that a tape could
+    # not tell the two apart (CROWN_FRACTION, the rule that defines C's crown)
+    return bool(-b / (2 * c) >= -EDGE_REACH_MM or b * b / (4 * c) <= CROWN_FRACTION * a)
 
 
 def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None) -> FeatureHeights:
