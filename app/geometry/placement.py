@@ -404,10 +404,10 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
             points, faces, half_spaces = run_points, run_faces, run.half_spaces
             break
         else:
-            # the straight axis's failure, unless it found no calf at all: then the run
-            # that got furthest (a bent leg's shank read along its own axis says more)
-            if FAILURE_STAGE.get(straight_failure.reason, 0) > 0:
-                raise straight_failure
+            # the reading that got furthest up the leg (ankle found, then calf, then
+            # knee): a reading that found the ankle and the calf but no knee names what is
+            # really missing better than one that found no ankle - a foot read as the
+            # calf, upside down, finds no ankle above it.  Ties: the straight axis's.
             raise max(run_failures, key=lambda f: FAILURE_STAGE.get(f.reason, 0))
 
     # anterior: the foot when there is one, else opposite the calf bulge

@@ -46,10 +46,19 @@ def test_the_generator_is_deterministic():
 
 @pytest.mark.parametrize("case_id", ["seated-00", "seated-02", "seated-03"])
 def test_a_seated_leg_is_measured_along_its_shank(case_id):
-    """Knees bent 56 and 32 degrees (specs of the 220-case corpus), foot to hip."""
+    """Knees bent 56, 32 and 84 degrees (specs of the 220-case corpus), foot to hip."""
     case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
     assert case.expect == "fit"
     result = run_case(case)
     assert result["outcome"] == "fit", result.get("detail")
     for name in ("B", "C"):
         assert abs(result["girth_error_mm"][name]) <= 2.0, (name, result["girth_error_mm"])
+
+
+@pytest.mark.parametrize("case_id", ["cut_below_knee-00", "cut_below_knee-02", "ankle_to_thigh-05"])
+def test_a_crop_names_what_is_really_missing(case_id):
+    """A scan from the foot to below the knee waist lacks the knee (the foot is not read as
+    a calf upside down); a scan cut at the ankle minimum B is fitted, B at its edge."""
+    case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
+    result = run_case(case)
+    assert result["outcome"] == case.expect, result.get("detail")
