@@ -18,7 +18,6 @@ from __future__ import annotations
 import asyncio
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -29,36 +28,14 @@ import httpx
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-BIN = Path(sys.executable).parent
+sys.path.insert(0, str(ROOT))
+
+from benchmarks.served import free_port, start, stop, wait_ready  # noqa: E402
+
 LEG = (ROOT / "tests" / "data" / "real" / "bodyparts3d_right_leg.stl").read_bytes()
 RESULTS = ROOT / "benchmarks" / "results"
 PG_ADMIN = os.environ.get("CALF_TEST_PG_ADMIN", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres")
 REDIS_URL = os.environ.get("CALF_TEST_REDIS", "redis://127.0.0.1:6379/0")
-
-
-def free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(args: list[str], env: dict) -> subprocess.Popen:
-    return subprocess.Popen([str(BIN / "calf-nurbs"), *args], env={**os.environ, **env},
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-
-
-def wait_ready(base: str, deadline_s: float = 60.0) -> None:
-    deadline = time.monotonic() + deadline_s
-    while time.monotonic() < deadline:
-        try:
-            if httpx.get(f"{base}/readyz", timeout=2).status_code == 200:
-                return
-        except httpx.TransportError:
-            pass
-        time.sleep(0.2)
-    raise RuntimeError("the server did not become ready")
 
 
 def percentile(values, q) -> float:
@@ -133,18 +110,12 @@ def run_mode(name: str, env: dict, worker_env: dict | None, uploads: int, client
     base = f"http://127.0.0.1:{port}"
     processes = [start(["serve", "--port", str(port)], env)]
     try:
-        wait_ready(base)
+        wait_ready(base, processes[0])
         if worker_env is not None:
             processes.append(start(["worker"], worker_env))
         result = asyncio.run(drive(base, uploads, clients))
     finally:
-        for p in processes:
-            p.terminate()
-        for p in processes:
-            try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop(*processes)
     result["mode"] = name
     print(json.dumps(result), flush=True)
     return result

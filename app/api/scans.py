@@ -104,27 +104,25 @@ async def upload_scan(
         raise
 
     async def check_and_queue() -> JSONResponse:
-        check = request.app.state.metrics.check_seconds
-        started = time.perf_counter()
+        # the quick acceptance check runs in a worker process: reading the file and
+        # finding the calf (ankle, calf, knee); nothing is stored if it fails (the
+        # received file is discarded below, on any failure)
+        started, outcome = time.perf_counter(), "runner_unavailable"
         try:
-            try:
-                # the quick acceptance check runs in a worker process: reading the file and
-                # finding the calf (ankle, calf, knee); nothing is stored if it fails
-                placement = await runner.run_in_worker(
-                    validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
-                    settings.max_scan_faces, timeout=settings.validation_timeout_s
-                )
-            except asyncio.TimeoutError as exc:
-                check.labels("check_timeout").observe(time.perf_counter() - started)
-                raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
-            except FitFailure as failure:
-                check.labels(failure.reason.value).observe(time.perf_counter() - started)
-                raise
-            check.labels("accepted").observe(time.perf_counter() - started)
-            job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
-        except BaseException:
-            upload.discard()
+            placement = await runner.run_in_worker(
+                validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
+                settings.max_scan_faces, timeout=settings.validation_timeout_s
+            )
+            outcome = "accepted"
+        except asyncio.TimeoutError as exc:
+            outcome = "check_timeout"
+            raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
+        except FitFailure as failure:
+            outcome = failure.reason.value
             raise
+        finally:
+            request.app.state.metrics.check_seconds.labels(outcome).observe(time.perf_counter() - started)
+        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
         await runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
         body = jsonable_encoder(job_view(job, scan, reused))
         return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
@@ -133,6 +131,6 @@ async def upload_scan(
     try:
         return await answer_once(request, session, principal, idempotency, "upload_scan", content, check_and_queue,
                                  on_replay=upload.discard)
-    except BaseException:  # a 409 for the key, or a failed check: the received file goes
+    except BaseException:  # a 409 for the key, a failed check or store: the received file goes
         upload.discard()
         raise

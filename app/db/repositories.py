@@ -17,6 +17,13 @@ from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, 
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
 
+def _inserted(session: Session, row):
+    """``row`` added and flushed (its defaults and id filled in)."""
+    session.add(row)
+    session.flush()
+    return row
+
+
 def count_rows(session: Session, model) -> int:
     """Number of rows of a model's table."""
     return session.scalar(select(func.count()).select_from(model)) or 0
@@ -58,10 +65,7 @@ class TenantRepository:
         return self.session.get(Tenant, tenant_id)
 
     def add(self, name: str) -> Tenant:
-        tenant = Tenant(name=name)
-        self.session.add(tenant)
-        self.session.flush()
-        return tenant
+        return _inserted(self.session, Tenant(name=name))
 
     def all(self) -> list[Tenant]:
         return list(self.session.scalars(select(Tenant).order_by(Tenant.name)))
@@ -73,11 +77,8 @@ class ApiKeyRepository:
 
     def add(self, tenant_id: str, prefix: str, secret_sha256: str, scopes: str, label: str | None,
             expires_at: datetime | None) -> ApiKey:
-        key = ApiKey(tenant_id=tenant_id, prefix=prefix, secret_sha256=secret_sha256, scopes=scopes, label=label,
-                     expires_at=expires_at)
-        self.session.add(key)
-        self.session.flush()
-        return key
+        return _inserted(self.session, ApiKey(tenant_id=tenant_id, prefix=prefix, secret_sha256=secret_sha256,
+                                              scopes=scopes, label=label, expires_at=expires_at))
 
     def by_prefix(self, prefix: str) -> ApiKey | None:
         return self.session.scalar(select(ApiKey).where(ApiKey.prefix == prefix))
@@ -104,11 +105,8 @@ class ScanRepository(_Owned):
         return self.session.scalar(self._scoped(select(Scan).where(Scan.sha256 == sha256)))
 
     def add(self, sha256: str, size_bytes: int, file_format: str, media_type: str) -> Scan:
-        scan = Scan(tenant_id=self._owner(None), sha256=sha256, size_bytes=size_bytes, file_format=file_format,
-                    media_type=media_type)
-        self.session.add(scan)
-        self.session.flush()
-        return scan
+        return _inserted(self.session, Scan(tenant_id=self._owner(None), sha256=sha256, size_bytes=size_bytes,
+                                            file_format=file_format, media_type=media_type))
 
     def count(self) -> int:
         return count_rows(self.session, Scan)
@@ -118,10 +116,8 @@ class JobRepository(_Owned):
     model = Job
 
     def add(self, scan_id: str, options: dict, placement: dict | None = None) -> Job:
-        job = Job(tenant_id=self._owner(None), scan_id=scan_id, options=options, placement=placement, status=JOB_QUEUED)
-        self.session.add(job)
-        self.session.flush()
-        return job
+        return _inserted(self.session, Job(tenant_id=self._owner(None), scan_id=scan_id, options=options,
+                                           placement=placement, status=JOB_QUEUED))
 
     def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None) -> Job | None:
         """Atomically lease the oldest claimable job (or the job ``job_id``) to ``owner``
@@ -208,7 +204,7 @@ class RecordRepository(_Owned):
 
     def add(self, body: dict, etag: str, source: str, scan_id: str | None, owner: str | None = None) -> Record:
         """A new record; ``owner`` is the tenant when the repository has none (the runner)."""
-        record = Record(
+        return _inserted(self.session, Record(
             tenant_id=self._owner(owner),
             body=body,
             etag=etag,
@@ -216,10 +212,7 @@ class RecordRepository(_Owned):
             scan_id=scan_id,
             side=body.get("side"),
             error_index=(body.get("fit") or {}).get("error_index"),
-        )
-        self.session.add(record)
-        self.session.flush()
-        return record
+        ))
 
     def page(self, limit: int, after: tuple[datetime, str] | None) -> list[Record]:
         """Newest first, keyset pagination on (created_at, id)."""
@@ -246,10 +239,7 @@ class DesignRepository(_Owned):
     model = Design
 
     def add(self, record_id: str, inputs: dict, result: dict, etag: str) -> Design:
-        design = Design(tenant_id=self._owner(None), record_id=record_id, inputs=inputs, result=result, etag=etag)
-        self.session.add(design)
-        self.session.flush()
-        return design
+        return _inserted(self.session, Design(tenant_id=self._owner(None), record_id=record_id, inputs=inputs, result=result, etag=etag))
 
     def for_record(self, record_id: str) -> list[Design]:
         query = self._scoped(select(Design).where(Design.record_id == record_id)).order_by(Design.created_at)
@@ -268,11 +258,8 @@ class IdempotentRequestRepository(_Owned):
 
     def reserve(self, key: str, operation: str, fingerprint: str, expires_at: datetime) -> IdempotentRequest:
         """Insert a pending row; a concurrent one with the same key raises IntegrityError."""
-        row = IdempotentRequest(tenant_id=self._owner(None), key=key, operation=operation, fingerprint=fingerprint,
-                                state="pending", expires_at=expires_at)
-        self.session.add(row)
-        self.session.flush()
-        return row
+        return _inserted(self.session, IdempotentRequest(tenant_id=self._owner(None), key=key, operation=operation,
+                                                         fingerprint=fingerprint, state="pending", expires_at=expires_at))
 
     def complete(self, row_id: str, status_code: int, body: dict, location: str | None) -> None:
         self.session.execute(update(IdempotentRequest).where(IdempotentRequest.id == row_id).values(

@@ -126,6 +126,8 @@ def find_floor(points: np.ndarray) -> Floor | None:
             candidate = sample[np.abs((sample - centre) @ normal) < FLOOR_TOLERANCE_MM]
         if len(candidate) > len(inliers):
             inliers = candidate
+    if len(inliers) < 0.02 * len(sample):
+        return None
     centre = inliers.mean(axis=0)
     _, _, vt = np.linalg.svd(inliers - centre, full_matrices=False)
     normal = vt[2]
@@ -156,8 +158,8 @@ def find_floor(points: np.ndarray) -> Floor | None:
     # it.  The flat soles of two feet side by side lie under their own feet, in the
     # shadow: they are skin, not a floor.
     shadow = (sample[signed >= FLOOR_TOLERANCE_MM] - centre) @ in_plane.T
-    distance, _ = cKDTree(shadow).query(flat, distance_upper_bound=FLOOR_MARGIN_MM)
-    outside = float(np.mean(~np.isfinite(distance)))
+    gap, _ = cKDTree(shadow).query(flat, distance_upper_bound=FLOOR_MARGIN_MM)
+    outside = float(np.mean(~np.isfinite(gap)))
     if outside < FLOOR_OUTSIDE_FRACTION:
         return None
     removed = int(((points - centre) @ normal < FLOOR_TOLERANCE_MM).sum())

@@ -24,9 +24,7 @@ from __future__ import annotations
 
 import logging
 import os
-import socket
 import threading
-import uuid
 
 import dramatiq
 from dramatiq.brokers.redis import RedisBroker
@@ -71,7 +69,8 @@ class _Context:
         self.settings = settings
         self.sessions = session_factory(settings.resolved_database_url)
         self.store = ScanStore(settings.scan_dir, settings.tmp_dir)
-        self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self.pid = os.getpid()
+        self.owner = lifecycle.owner_name()
 
 
 _context: _Context | None = None
@@ -81,7 +80,7 @@ _context_lock = threading.Lock()
 def _worker_context() -> _Context:
     global _context
     with _context_lock:
-        if _context is None or _context.owner.split(":")[1] != str(os.getpid()):
+        if _context is None or _context.pid != os.getpid():  # a forked worker makes its own
             _context = _Context(get_settings())
         return _context
 

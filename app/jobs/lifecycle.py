@@ -10,6 +10,9 @@ it and however often.  A job whose fit was interrupted is released to the queue.
 from __future__ import annotations
 
 import logging
+import os
+import socket
+import uuid
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 
@@ -41,6 +44,12 @@ INTERNAL_ERROR_DETAIL = "the fit failed on an unexpected error; it has been logg
 
 def timeout_detail(limit_s: float) -> str:
     return f"the fit took longer than {limit_s:g} s"
+
+
+def owner_name() -> str:
+    """A lease owner: ``host:pid:tag`` (the pid says which process to look at; the tag
+    tells two runners of one process apart)."""
+    return f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
 
 
 def lease_until(lease_s: float) -> datetime:

@@ -33,9 +33,7 @@ import logging
 import multiprocessing
 import os
 import signal
-import socket
 import time
-import uuid
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -43,12 +41,12 @@ from typing import TYPE_CHECKING
 
 from sqlalchemy.orm import Session, sessionmaker
 
-from app.db.repositories import JobRepository
 from app.errors import Unavailable
 from app.geometry.errors import FitFailure
 from app.jobs import lifecycle
 from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL, timeout_detail
 from app.services.fitting import fit_scan_file
+from app.services.jobs import job_status_counts
 from app.services.storage import ScanStore
 
 if TYPE_CHECKING:
@@ -80,18 +78,19 @@ class _Pool:
 
     def kill(self) -> None:
         """Stop the pool now, its running tasks with it (their futures break)."""
-        executor, self.executor = self.executor, None
+        pids, executor, self.executor = self.pids(), self.executor, None
         if executor is None:
             return
-        for process in list((getattr(executor, "_processes", None) or {}).values()):
+        for pid in pids:
             try:
-                os.kill(process.pid, signal.SIGKILL)
-            except (ProcessLookupError, OSError):
+                os.kill(pid, signal.SIGKILL)
+            except OSError:  # already gone
                 pass
         executor.shutdown(wait=False, cancel_futures=True)
 
     def pids(self) -> list[int]:
-        return [p.pid for p in (getattr(self.executor, "_processes", None) or {}).values()]
+        """The pool's worker processes (ProcessPoolExecutor keeps them in _processes)."""
+        return [p.pid for p in list((getattr(self.executor, "_processes", None) or {}).values())]
 
     async def run(self, fn, *args, timeout: float | None = None):
         if self.executor is None:
@@ -117,7 +116,7 @@ class EmbeddedRunner:
         self.enqueue = enqueue
         if enqueue is not None:
             self.run_jobs = False
-        self.owner = f"{socket.gethostname()}:{os.getpid()}:{uuid.uuid4().hex[:8]}"
+        self.owner = lifecycle.owner_name()
         self.check_pool = _Pool("check", workers)
         self.fit_pool = _Pool("fit", workers)
         self._wakeup: asyncio.Event | None = None
@@ -207,7 +206,7 @@ class EmbeddedRunner:
     # ------------------------------------------------------------------ database
     def _counts(self) -> dict:
         with self.sessions() as session:
-            return JobRepository(session).count_by_status()
+            return job_status_counts(session)
 
     def _claim(self):
         return lifecycle.claim(self.sessions, self.store, self.owner, self.lease_s, self.max_attempts)

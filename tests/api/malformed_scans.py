@@ -9,6 +9,7 @@ file, odd as it is, holds a readable leg (a binary STL whose header starts with
 from __future__ import annotations
 
 import base64
+import io
 import json
 import struct
 from dataclasses import dataclass, field
@@ -45,24 +46,29 @@ def _binary_stl(triangles: np.ndarray, header: bytes = b"calf-nurbs test", count
     return header.ljust(80, b" ")[:80] + struct.pack("<I", f if count is None else count) + records.tobytes()
 
 
+def _rows(array: np.ndarray, fmt: str) -> bytes:
+    """Rows of ``array`` as text lines of ``fmt`` (np.savetxt: one call, no loop)."""
+    buffer = io.BytesIO()
+    if len(array):
+        np.savetxt(buffer, array, fmt=fmt)
+    return buffer.getvalue()
+
+
 def _ascii_ply(vertices: np.ndarray, faces: np.ndarray, stated_vertices: int | None = None) -> bytes:
     head = (f"ply\nformat ascii 1.0\nelement vertex {len(vertices) if stated_vertices is None else stated_vertices}\n"
             "property float x\nproperty float y\nproperty float z\n"
             f"element face {len(faces)}\nproperty list uchar int vertex_indices\nend_header\n")
-    body = "\n".join(" ".join(f"{c:.4f}" for c in v) for v in vertices)
-    body += "\n" + "\n".join("3 " + " ".join(str(int(i)) for i in f) for f in faces)
-    return (head + body + "\n").encode()
+    # (a face list, or an empty line where there is none)
+    return head.encode() + _rows(vertices, "%.4f") + (_rows(faces, "3 %d %d %d") if len(faces) else b"\n")
 
 
 def _obj(vertices: np.ndarray, faces: np.ndarray | None, index_base: int = 1) -> bytes:
-    lines = [f"v {x:.4f} {y:.4f} {z:.4f}" for x, y, z in vertices]
-    if faces is not None:
-        lines += [f"f {a + index_base} {b + index_base} {c + index_base}" for a, b, c in faces]
-    return ("\n".join(lines) + "\n").encode()
+    text = _rows(vertices, "v %.4f %.4f %.4f")
+    return text if faces is None else text + _rows(np.asarray(faces) + index_base, "f %d %d %d")
 
 
 def _xyz(points: np.ndarray) -> bytes:
-    return ("\n".join(f"{x:.3f} {y:.3f} {z:.3f}" for x, y, z in points) + "\n").encode()
+    return _rows(points, "%.3f")
 
 
 def _gltf(uri: str, count: int = 3) -> bytes:

@@ -4,47 +4,18 @@ and an API that runs no jobs plus a separate `calf-nurbs worker`, both on Postgr
 from __future__ import annotations
 
 import os
-import socket
-import subprocess
-import sys
 import time
 import uuid
-from pathlib import Path
 
 import httpx
 import pytest
 from sqlalchemy import create_engine, text
 from sqlalchemy.exc import OperationalError
 
+from benchmarks.served import BIN, free_port, start, stop, wait_ready  # noqa: F401 - used by other test modules
 from tests.conftest import REAL
 
-BIN = Path(sys.executable).parent
 PG_ADMIN_URL = os.environ.get("CALF_TEST_PG_ADMIN", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def start(args: list[str], env: dict) -> subprocess.Popen:
-    return subprocess.Popen([str(BIN / "calf-nurbs"), *args], env={**os.environ, **env},
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-
-
-def wait_ready(base: str, process: subprocess.Popen, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if process.poll() is not None:
-            raise AssertionError(f"server exited: {process.stdout.read()}")
-        try:
-            if httpx.get(f"{base}/readyz", timeout=2).status_code == 200:
-                return
-        except httpx.TransportError:
-            pass
-        time.sleep(0.2)
-    raise AssertionError("server did not become ready")
 
 
 def fit_one(base: str, auth: dict | None = None) -> dict:
@@ -58,16 +29,6 @@ def fit_one(base: str, auth: dict | None = None) -> dict:
             return job
         time.sleep(0.2)
     raise AssertionError("job did not finish")
-
-
-def stop(*processes: subprocess.Popen) -> None:
-    for process in processes:
-        process.terminate()
-    for process in processes:
-        try:
-            process.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            process.kill()
 
 
 def test_serve_migrates_an_empty_data_dir_then_fits(tmp_path):
