@@ -55,6 +55,13 @@ CROWN_FRACTION = 0.005
 #: when the girth is still falling towards a minimum further out
 EDGE_FIT_MM = 40.0
 EDGE_REACH_MM = 15.0
+#: ... or when the parabola's minimum lies at most this far below the girth at the edge
+#: (or CROWN_FRACTION of it, whichever is more): a tape reads to 1 mm, +-1 mm at each
+#: end, so a minimum 2 mm below the edge's girth cannot be told from it (it is also the
+#: B and C girth tolerance).  The parabola over 40 mm of an ankle, which rises faster
+#: than a parabola above its minimum, puts the vertex 10-20 mm too far out, so the
+#: depth is the surer test at the ankle.
+TAPE_RESOLUTION_MM = 2.0
 #: the ankle B is the narrowest section of the leg above the foot (anthropometry: the
 #: minimum leg girth, ISO 8559-1 5.3.23); a candidate B with a leg section more than
 #: this fraction narrower below it is a knee waist (the scan starts above the ankle,
@@ -66,6 +73,14 @@ NARROWER_BELOW = 0.03
 #: small sections of a sole or toes under them are not leg; below a knee waist lies
 #: only the calf, at most ~1.25 x the knee waist
 FOOT_RATIO = 1.3
+
+#: the calf maximum's section is nearly round: calf sections have an elongation
+#: (:meth:`app.geometry.sections.PolarSections.elongations`, sqrt(a/b) for an a x b
+#: ellipse) of 1.01-1.10 on the real and generated legs (width to depth 1.0-1.2, as
+#: anthropometry has it); a section through the heel and the instep, which a scan read
+#: upside down offers as a "calf", is 1.5 or more (about 2.5:1).  1.35 (a 1.8:1
+#: section) lies between, well clear of both.
+MAX_CALF_ELONGATION = 1.35
 
 LANDMARK_NAMES = ("B", "B1", "C", "D")
 
@@ -229,7 +244,8 @@ def _minimum_reached_at_edge(heights: np.ndarray, raw: np.ndarray, edge: float, 
     girth over the last :data:`EDGE_FIT_MM` of the scan, x the distance from the edge
     into the scan (``inward`` +1 for the bottom edge, -1 for the top).  True when the
     girth does not fall into the scan's edge (b <= 0: the minimum is inside) or the
-    parabola's vertex lies at most :data:`EDGE_REACH_MM` beyond the edge.
+    parabola's vertex lies at most :data:`EDGE_REACH_MM` beyond the edge, or at most
+    :data:`TAPE_RESOLUTION_MM` (or :data:`CROWN_FRACTION`) below the edge's girth.
     """
     x = (heights - edge) * inward
     near = (x >= 0) & (x <= EDGE_FIT_MM) & np.isfinite(raw)
@@ -242,10 +258,11 @@ def _minimum_reached_at_edge(heights: np.ndarray, raw: np.ndarray, edge: float, 
         return False
     # the vertex is near enough, or so shallow below the edge girth that a tape could
     # not tell the two apart (CROWN_FRACTION, the rule that defines C's crown)
-    return bool(-b / (2 * c) >= -EDGE_REACH_MM or b * b / (4 * c) <= CROWN_FRACTION * a)
+    return bool(-b / (2 * c) >= -EDGE_REACH_MM or b * b / (4 * c) <= max(CROWN_FRACTION * a, TAPE_RESOLUTION_MM))
 
 
-def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None) -> FeatureHeights:
+def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None,
+                         elongation: np.ndarray | None = None) -> FeatureHeights:
     """B, C, D on a profile sampled bottom (ankle end) to top (knee end).
 
     C is the first calf candidate above the ankle (see :func:`_calf_candidates`) that
@@ -256,6 +273,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     ``near_c_mm``: when re-detecting after a small change of axis, only candidates
     within :data:`C_HINT_MM` of the previous C are considered (if there are any), so the
     choice cannot jump between two similar plateau points.
+    ``elongation`` (k,), when given: a candidate whose section is more elongated than
+    :data:`MAX_CALF_ELONGATION` is not a calf (it is a foot).
     Raises FitFailure NOT_A_LEG (no calf bulge), NO_ANKLE or NO_KNEE.
     """
     g = smooth_profile(heights, girth)
@@ -293,7 +312,11 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
-            outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
+            if elongation is not None and elongation[ic] > MAX_CALF_ELONGATION:
+                outcome = _no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as long "
+                                   "as it is wide: a foot, not a calf")
+            else:
+                outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
             if isinstance(outcome, FitFailure):
                 # among ankles missing, the lowest bulge (the calf is the first bulge above
                 # the ankle); otherwise the largest

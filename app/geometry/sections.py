@@ -66,6 +66,22 @@ class PolarSections:
         """(k,) mean radius of each contour, mm (``r_k`` of the error index, eq. 4)."""
         return self.radii_mm.mean(axis=1)
 
+    def elongations(self) -> np.ndarray:
+        """(k,) elongation of each contour: sqrt of the ratio of the principal second
+        moments of its ray end points (1 for a circle; sqrt(a/b) for an a x b ellipse
+        seen on equal-angle rays from its centre; NaN for missing sections).
+        Dimensionless."""
+        a = self.angles_rad
+        x = self.radii_mm * np.cos(a)
+        y = self.radii_mm * np.sin(a)
+        x = x - x.mean(axis=1, keepdims=True)
+        y = y - y.mean(axis=1, keepdims=True)
+        cxx, cyy, cxy = (x * x).mean(axis=1), (y * y).mean(axis=1), (x * y).mean(axis=1)
+        half_trace = (cxx + cyy) / 2
+        root = np.sqrt(np.maximum(half_trace**2 - (cxx * cyy - cxy**2), 0.0))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.sqrt((half_trace + root) / (half_trace - root))
+
 
 def ray_angles(n_angles: int) -> np.ndarray:
     """(n_angles,) equally spaced angles in [0, 2*pi)."""

@@ -52,3 +52,22 @@ def test_noisy_point_cloud_is_fitted_across_gaps():
 def test_polygon_perimeter_of_a_square_in_polar_form():
     angles = np.array([0, 0.5, 1.0, 1.5]) * np.pi
     assert np.isclose(polygon_perimeter(np.ones(4), angles), 4 * np.sqrt(2))
+
+
+def test_elongation_of_a_circle_an_ellipse_and_a_missing_section():
+    """sqrt of the principal second moments' ratio of the ray ends: 1 for a circle,
+    sqrt(a/b) for an a x b ellipse on equal-angle rays from its centre, whatever its
+    turn; NaN for a missing section."""
+    from app.geometry.sections import PolarSections
+
+    angles = ray_angles(72)
+
+    def ellipse(a, b, turn=0.0):
+        t = angles - turn
+        return a * b / np.sqrt((b * np.cos(t)) ** 2 + (a * np.sin(t)) ** 2)
+
+    radii = np.stack([np.full(72, 40.0), ellipse(44.0, 40.0), ellipse(80.0, 40.0, 0.7), np.full(72, np.nan)])
+    sections = PolarSections(np.arange(4.0), np.zeros((4, 2)), radii, angles, np.ones(4))
+    elongation = sections.elongations()
+    assert np.allclose(elongation[:3], [1.0, np.sqrt(1.1), np.sqrt(2.0)], atol=1e-6)
+    assert np.isnan(elongation[3])
