@@ -103,7 +103,9 @@ def _format_of(name: str | None, file_type: str | None) -> str:
     return fmt
 
 
-_NUMBER_ROW = re.compile(r"^\s*([-+0-9.]|nan|inf)", re.IGNORECASE)
+#: a row that starts with a number (header and comment rows do not); whole lines, so one
+#: C-level findall picks the data rows instead of a Python loop over the lines
+_NUMBER_ROW = re.compile(r"^[ \t]*(?:[-+0-9.]|nan|inf)[^\r\n]*", re.IGNORECASE | re.MULTILINE)
 
 
 def _read_text_cloud(data: bytes) -> np.ndarray:
@@ -112,7 +114,7 @@ def _read_text_cloud(data: bytes) -> np.ndarray:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise FitFailure(FailureReason.UNREADABLE_FILE, "point cloud is not UTF-8 text") from exc
-    rows = [line for line in text.splitlines() if _NUMBER_ROW.match(line)]
+    rows = _NUMBER_ROW.findall(text)
     if not rows:
         raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no numeric rows")
     body = "\n".join(rows).replace(";", " ").replace(",", " ").replace("\t", " ")
@@ -183,6 +185,58 @@ def check_stl_integrity(data: bytes) -> None:
         FailureReason.UNREADABLE_FILE,
         f"the binary STL announces {count} triangles ({expected} bytes) but the file has {len(data)} bytes",
     )
+
+
+#: bytes of the PLY scalar types (PLY 1.0 names and their sized aliases)
+_PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
+                   "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
+                   "double": 8, "float64": 8}
+
+
+def check_ply_integrity(data: bytes) -> None:
+    """Refuse a PLY that holds fewer elements than its header announces.
+
+    The header lists ``element vertex N`` and ``element face M`` with their properties
+    and ends with ``end_header``.  ASCII: one element per line, so at least N + M data
+    lines must follow.  Binary: at least N vertex records (fixed size from the scalar
+    properties) plus M face records of a triangle (list count + 3 indices) must follow.
+    A reader would otherwise return the elements present and a scan cut short would be
+    fitted, or refused for the wrong reason.
+    """
+    end = data.find(b"end_header")
+    if not data.startswith(b"ply") or end < 0:
+        return  # not a PLY header: the reader gives the reason
+    body_start = data.find(b"\n", end)
+    body = data[body_start + 1 :] if body_start >= 0 else b""
+    elements: list[list] = []  # [name, count, fixed bytes, minimum list bytes]
+    fmt = "ascii"
+    for line in data[:end].decode("ascii", "replace").splitlines():
+        words = line.split()
+        if len(words) >= 2 and words[0] == "format":
+            fmt = words[1]
+        elif len(words) == 3 and words[0] == "element" and words[2].isdigit():
+            elements.append([words[1], int(words[2]), 0, 0])
+        elif elements and len(words) == 3 and words[0] == "property":
+            elements[-1][2] += _PLY_TYPE_BYTES.get(words[1], 0)
+        elif elements and len(words) == 5 and words[:2] == ["property", "list"]:
+            count_bytes, item_bytes = _PLY_TYPE_BYTES.get(words[2], 0), _PLY_TYPE_BYTES.get(words[3], 0)
+            elements[-1][3] += count_bytes + 3 * item_bytes  # at least a triangle
+    plural = {"vertex": "vertices"}
+    announced = ", ".join(f"{count} {plural.get(name, name + 's') if count != 1 else name}"
+                          for name, count, _, _ in elements)
+    if fmt == "ascii":
+        needed = sum(count for _, count, _, _ in elements)
+        present = sum(1 for line in body.splitlines() if line.strip())
+        unit = "lines"
+    else:
+        needed = sum(count * (fixed + listed) for _, count, fixed, listed in elements)
+        present, unit = len(body), "bytes"
+    if present < needed:
+        raise FitFailure(
+            FailureReason.TRUNCATED_FILE,
+            f"the PLY is truncated: its header announces {announced} ({needed} {unit} of data) "
+            f"but the file has {present}",
+        )
 
 
 def _check_size(what: str, count: int, limit: int) -> None:
@@ -311,6 +365,8 @@ def load_scan(
     else:
         if fmt == "stl":
             check_stl_integrity(data)
+        if fmt == "ply":
+            check_ply_integrity(data)
         points, faces = _read_with_trimesh(data, fmt)
     if max_points is not None:
         _check_size("points", len(points), max_points)

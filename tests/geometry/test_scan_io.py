@@ -90,6 +90,22 @@ def test_a_real_stl_cut_short_is_truncated(leg_mesh):
     assert info.value.reason == FailureReason.TRUNCATED_FILE and "truncated" in info.value.detail
 
 
+@pytest.mark.parametrize("encoding", ["ascii", "binary_little_endian"])
+@pytest.mark.parametrize("kind", ["mesh", "points"])
+def test_a_real_ply_cut_short_is_truncated_and_whole_it_reads(leg_mesh, encoding, kind):
+    """A PLY holding fewer vertices or faces than its header announces is truncated
+    (not read as the elements present); the whole file reads in full."""
+    geometry = leg_mesh if kind == "mesh" else trimesh.PointCloud(leg_mesh.vertices)
+    data = geometry.export(file_type="ply", encoding=encoding)
+    whole = load_scan(data, file_type="ply")
+    assert len(whole.points_mm) == len(leg_mesh.vertices)
+    for cut in (len(data) - 40, len(data) // 2):
+        with pytest.raises(FitFailure) as info:
+            load_scan(data[:cut], file_type="ply")
+        assert info.value.reason == FailureReason.TRUNCATED_FILE
+        assert f"{len(leg_mesh.vertices)} vertices" in info.value.detail
+
+
 def test_nan_coordinates_and_absurd_sizes_are_refused(leg_mesh):
     bad = leg_mesh.vertices.copy()
     bad[10, 1] = np.nan
