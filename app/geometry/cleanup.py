@@ -184,7 +184,8 @@ def point_spacing(points: np.ndarray, percentile: float = 50.0) -> float:
     """Nearest-neighbour distance (median, or another percentile) of a 5k-point stride
     sample, mm."""
     sample = _stride_sample(points, 5000)
-    distance, _ = cKDTree(points).query(sample, k=2)
+    # an unbalanced, non-compacted tree builds twice as fast and queries as fast here
+    distance, _ = cKDTree(points, balanced_tree=False, compact_nodes=False).query(sample, k=2)
     return float(np.percentile(distance[:, 1], percentile))
 
 
