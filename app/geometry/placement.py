@@ -17,7 +17,8 @@ Steps (mm throughout):
    of the thigh at the knee (:mod:`app.geometry.knee_bend`), so the axis and the
    sections are the shank's, not the body's; the circumference profile
    gives B, C, D (:func:`app.geometry.landmarks.find_feature_heights`), both ends tried
-   when the scan's up is unknown; the calf's own PCA axis (B to D) is adopted;
+   when the scan's up is unknown; the calf's own long axis (the line through its
+   section centroids, :func:`_section_centre_line`) is adopted;
    anterior from the foot, else opposite the calf bulge; origin at the B centroid;
 4. the legs found: none - the failure of the largest candidate; one - it; several - the
    one named by ``side``, or :data:`FailureReason.SEVERAL_LEGS` listing them;
@@ -403,7 +404,8 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
 
     Paper section 2.1: PCA of the whole leg gives a first axis (refined by the compact
     slabs' centre line); B, C, D are found on the profile along it; then the axis is
-    re-estimated by PCA of the calf between B and D and the landmarks found again, at
+    re-estimated as the calf's long axis (:func:`_section_centre_line`; the paper uses
+    PCA of the calf between B and D) and the landmarks found again, at
     most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
     :data:`AXIS_TOLERANCE_DEG`.  When the first axis finds no calf, the straight runs of
     the leg's centre line (a bent knee) are tried in turn.
