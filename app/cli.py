@@ -12,6 +12,7 @@ import sys
 import time
 from pathlib import Path
 
+from app.cad import CAD_FORMATS
 from app.geometry.errors import FitFailure
 
 
@@ -31,6 +32,8 @@ def fit_summary(record_dict: dict) -> dict:
         "error_index_diameter": fit["error_index_diameter"],
         "max_error_mm": fit["max_error_mm"],
         "points_per_layer": fit["points_per_layer"],
+        "mode": fit.get("mode", "paper"),
+        **({"grid": fit["grid"]} if "grid" in fit else {}),
         "seconds": fit["seconds"],
     }
 
@@ -49,6 +52,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
             n_sections=args.sections,
             section_spacing_mm=args.spacing,
             mode=args.mode,
+            grid=args.grid,
         )
         result = fit_scan(scan, options)
     except FitFailure as exc:
@@ -78,6 +82,15 @@ def _cmd_export(args: argparse.Namespace) -> int:
         record = _load_record(args.record)
     except FitFailure as exc:
         return _fail(exc)
+    if args.format in CAD_FORMATS:
+        from app.cad import export_surface
+
+        data = export_surface(record.surface, args.format)
+        Path(args.output).write_bytes(data)
+        nu, nv = record.surface.shape
+        print(json.dumps({"written": args.output, "format": args.format, "exact": True, "control_points": [nu, nv],
+                          "frame": "calf (B at the origin, z up the leg, y anterior), mm"}))
+        return 0
     mesh = surface_mesh(record.surface, record.frame, n_u=args.around, n_v=args.along)
     Path(args.output).write_bytes(export_mesh(mesh, args.format))
     print(json.dumps({"written": args.output, "format": args.format, "faces": int(len(mesh.faces))}))
@@ -214,13 +227,16 @@ def build_parser() -> argparse.ArgumentParser:
     fit.add_argument("--points", type=int, default=15, help="feature points per layer (paper: 8 or 15)")
     fit.add_argument("--sections", type=int, default=200, help="resampled sections between B and D")
     fit.add_argument("--spacing", type=float, help="section spacing in mm (overrides --sections)")
-    fit.add_argument("--mode", choices=["paper", "paper_stacked"], default="paper")
+    fit.add_argument("--mode", choices=["paper", "paper_stacked", "lsq"], default="paper",
+                     help="paper: interpolate 7 x points feature points; lsq: least squares on all the calf's points")
+    fit.add_argument("--grid", default="7x15", help="lsq control net ALONGxAROUND (default 7x15, e.g. 12x24)")
     fit.add_argument("-o", "--output", help="write the record JSON here")
     fit.set_defaults(func=_cmd_fit)
 
-    export = sub.add_parser("export", help="write a record's surface as STL/GLB/glTF in scan coordinates")
+    export = sub.add_parser("export", help="write a record's surface: STL/GLB/glTF meshes in scan coordinates, or "
+                            "the exact B-spline as STEP/IGES/3dm/geomdl JSON in the calf frame (mm)")
     export.add_argument("record")
-    export.add_argument("--format", choices=["stl", "glb", "gltf"], default="stl")
+    export.add_argument("--format", choices=["stl", "glb", "gltf", *CAD_FORMATS], default="stl")
     export.add_argument("--around", type=int, default=144, help="samples around the leg")
     export.add_argument("--along", type=int, default=100, help="samples along the leg")
     export.add_argument("-o", "--output", required=True)

@@ -29,6 +29,8 @@ from app.services.uploads import MEDIA_TYPES, receive_upload
 from app.settings import Settings
 
 ScanFormat = Literal[SUPPORTED_FORMATS]  # type: ignore[valid-type]
+#: an lsq control net, ALONGxAROUND (the bounds are checked with the reason in words)
+GRID_PATTERN = r"^[0-9]{1,2}[xX][0-9]{1,2}$"
 
 router = APIRouter(prefix="/api/v1", tags=["scans"], responses=auth_problems())
 
@@ -36,7 +38,7 @@ _SCAN_BODY = {"schema": {"type": "string", "format": "binary", "minLength": 1}}
 UPLOAD_BODY = {
     "requestBody": {
         "required": True,
-        "description": "The scan: a multipart form (field `file`, optional fields `side`, `units`, `points`) "
+        "description": "The scan: a multipart form (field `file`, optional fields `side`, `units`, `points`, `mode`, `grid`) "
         "or the raw file with its media type (options as query parameters; application/octet-stream needs ?format=).",
         "content": {
             "multipart/form-data": {
@@ -48,6 +50,8 @@ UPLOAD_BODY = {
                         "side": {"type": "string", "enum": ["left", "right"]},
                         "units": {"type": "string", "enum": ["mm", "cm", "m"]},
                         "points": {"type": "integer", "minimum": 4, "maximum": 36, "default": 15},
+                        "mode": {"type": "string", "enum": ["paper", "lsq"], "default": "paper"},
+                        "grid": {"type": "string", "pattern": GRID_PATTERN},
                     },
                 }
             },
@@ -87,6 +91,10 @@ async def upload_scan(
     side: Literal["left", "right"] | None = Query(None, description="which leg of a whole-body scan"),
     units: Literal["mm", "cm", "m"] | None = Query(None, description="the file's unit; detected from the extent when omitted"),
     points: int | None = Query(None, ge=4, le=36, description="feature points per layer (paper: 8 or 15)"),
+    mode: Literal["paper", "lsq"] | None = Query(
+        None, description="paper: the paper's 7 x points interpolation; lsq: least squares on all the calf's points"),
+    grid: str | None = Query(None, pattern=GRID_PATTERN,
+                             description="lsq control net ALONGxAROUND, e.g. 7x15 (default) or 12x24"),
     file_format: ScanFormat | None = Query(None, alias="format", description="scan format for application/octet-stream"),
     settings: Settings = Depends(get_app_settings),
     store: ScanStore = Depends(get_store),
@@ -98,7 +106,9 @@ async def upload_scan(
     upload = await receive_upload(request.headers, request.stream(), store, settings.max_upload_bytes, file_format)
     try:
         fields = upload.fields
-        options = parse_options(side or fields.get("side"), units or fields.get("units"), points if points is not None else fields.get("points"))
+        options = parse_options(side or fields.get("side"), units or fields.get("units"),
+                                points if points is not None else fields.get("points"),
+                                mode or fields.get("mode"), grid or fields.get("grid"))
     except BaseException:
         upload.discard()
         raise

@@ -26,6 +26,7 @@ from app.geometry.landmarks import (
     b1_height,
     layer_heights,
 )
+from app.geometry.lsq import LsqFit, LsqGrid, fit_lsq_surface
 from app.geometry.nurbs import NurbsSurface, surface_from_layers
 from app.geometry.placement import LegPlacement, place_leg, replace_leg
 from app.geometry.scan_io import Scan
@@ -36,7 +37,7 @@ from app.geometry.surface_error import SurfaceError, error_statistics
 #: stride): the RMS of 30k distances is within ~1% of that of all of them
 MAX_ERROR_POINTS = 30_000
 
-SURFACE_MODES = ("paper", "paper_stacked")
+SURFACE_MODES = ("paper", "paper_stacked", "lsq")
 
 
 @dataclass(frozen=True)
@@ -48,6 +49,9 @@ class FitOptions:
     n_sections : resampled sections between B and D (paper: 200).
     section_spacing_mm : if given, sections every this many mm instead (e.g. 1.0).
     n_angles : rays per section (paper: 72, i.e. 5 degrees).
+    mode : "paper" (7 x m interpolation), "paper_stacked", or "lsq" (least squares on
+        all the calf's points, :mod:`app.geometry.lsq`).
+    grid : the lsq control net, "ALONGxAROUND" (default 7x15, the paper's 105 points).
     """
 
     side: str | None = None
@@ -56,6 +60,7 @@ class FitOptions:
     section_spacing_mm: float | None = None
     n_angles: int = 72
     mode: str = "paper"
+    grid: str = "7x15"
 
     def validate(self) -> None:
         if self.side not in (None, "left", "right"):
@@ -68,6 +73,8 @@ class FitOptions:
             raise FitFailure(FailureReason.INVALID_OPTION, "section spacing must be 0.2-20 mm")
         if self.mode not in SURFACE_MODES:
             raise FitFailure(FailureReason.INVALID_OPTION, f"mode must be one of {', '.join(SURFACE_MODES)}")
+        if self.mode == "lsq":
+            LsqGrid.parse(self.grid)
         if self.n_angles not in (36, 72, 144, 360):
             raise FitFailure(FailureReason.INVALID_OPTION, "angles per section must be 36, 72, 144 or 360")
 
@@ -89,6 +96,7 @@ class FitResult:
     options: FitOptions
     timings: dict = field(default_factory=dict)
     placement: LegPlacement | None = None
+    lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
 
     @property
     def warnings(self) -> list[str]:
@@ -203,18 +211,23 @@ def fit_calf(
     )
     lap("feature_points")
 
-    try:
-        surface = surface_from_layers(layer_points, mode=options.mode)
-    except (ValueError, np.linalg.LinAlgError) as exc:
-        raise FitFailure(
-            FailureReason.DEGENERATE_SURFACE,
-            "the feature points cannot be interpolated (two of them coincide or a layer folds over itself)",
-        ) from exc
-    lap("nurbs")
-
     in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
     if faces is None:
         in_calf = in_calf[:: max(len(in_calf) // MAX_ERROR_POINTS, 1)]
+    lsq_fit = None
+    if options.mode == "lsq":
+        lsq_fit = fit_lsq_surface(sections, layers_z, local[in_calf], LsqGrid.parse(options.grid))
+        surface = lsq_fit.surface
+    else:
+        try:
+            surface = surface_from_layers(layer_points, mode=options.mode)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            raise FitFailure(
+                FailureReason.DEGENERATE_SURFACE,
+                "the feature points cannot be interpolated (two of them coincide or a layer folds over itself)",
+            ) from exc
+    lap("nurbs")
+
     error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
     lap("error")
     return FitResult(
@@ -231,6 +244,7 @@ def fit_calf(
         options=options,
         timings=timings,
         placement=placement,
+        lsq=lsq_fit,
     )
 
 

@@ -123,6 +123,9 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
         "per_layer": list(err.per_layer),
         "d_at_window_edge": bool(result.landmarks.d_at_window_edge),
     }
+    if result.lsq is not None:
+        fit["grid"] = {"along": result.lsq.grid.along, "around": result.lsq.grid.around}
+        fit["correction_rms_mm"] = list(result.lsq.rms_mm)
     placement = result.placement
     side_inference = {
         "side": result.side,

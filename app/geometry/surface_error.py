@@ -160,14 +160,16 @@ def refine_seeds(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: np.ndar
 
 
 def newton_distances(
-    surface: NurbsSurface, points: np.ndarray, u: np.ndarray, v: np.ndarray, iterations: int = NEWTON_ITERATIONS
+    surface: NurbsSurface, points: np.ndarray, u: np.ndarray, v: np.ndarray, iterations: int = NEWTON_ITERATIONS,
+    tolerance_mm: float = STEP_TOLERANCE_MM,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Exact point-to-surface distance by Newton point inversion (NURBS Book 6.1).
 
     points (N, 3) mm; u, v (N,) seeds.  Returns distance (N,), u (N,), v (N,) at the
     foot points.  A point whose next Newton step would move its foot point by less
-    than :data:`STEP_TOLERANCE_MM` on the surface is done: its distance is then exact
-    to that tolerance, and later iterations only touch the points still moving.
+    than ``tolerance_mm`` (:data:`STEP_TOLERANCE_MM`) on the surface is done: its
+    distance is then exact to that tolerance, and later iterations only touch the
+    points still moving.
     """
     u0, u1 = surface.domain_u
     v0, v1 = surface.domain_v
@@ -196,7 +198,7 @@ def newton_distances(
         new_u = u0 + np.mod(ua + step_u - u0, period)
         new_v = np.clip(va + step_v, v0, v1)
         moved_mm = np.linalg.norm(su * step_u[:, None] + sv * (new_v - va)[:, None], axis=1)
-        moving = moved_mm > STEP_TOLERANCE_MM
+        moving = moved_mm > tolerance_mm
         u[active], v[active] = np.where(moving, new_u, ua), np.where(moving, new_v, va)
         active = active[moving]
         if active.size == 0:

@@ -10,14 +10,21 @@ import time
 
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit import FitOptions, check_scan, fit_scan
+from app.geometry.lsq import LsqGrid
 from app.geometry.record import record_from_fit
 from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
 
 DEFAULT_POINTS = 15
+DEFAULT_GRID = "7x15"
+#: surface modes an upload may ask for ("paper_stacked" is a study of the paper's text,
+#: kept for the CLI and the benchmarks)
+UPLOAD_MODES = ("paper", "lsq")
 
 
-def parse_options(side: str | None, units: str | None, points: str | int | None) -> dict:
-    """Validate upload options (form fields or query parameters) into the job's options."""
+def parse_options(side: str | None, units: str | None, points: str | int | None,
+                  mode: str | None = None, grid: str | None = None) -> dict:
+    """Validate upload options (form fields or query parameters) into the job's options:
+    side, units, points, mode ("paper" or "lsq") and, for lsq, grid ("ALONGxAROUND")."""
 
     def invalid(detail: str) -> FitFailure:
         return FitFailure(FailureReason.INVALID_OPTION, detail)
@@ -35,13 +42,22 @@ def parse_options(side: str | None, units: str | None, points: str | int | None)
             m = int(points)
         except (TypeError, ValueError) as exc:
             raise invalid(f"points must be an integer (8 or 15 in the paper), not {points!r}") from exc
-    options = {"side": side, "units": units, "points": m}
+    mode = (mode or "").strip().lower() or "paper"
+    if mode not in UPLOAD_MODES:
+        raise invalid(f"mode must be one of {', '.join(UPLOAD_MODES)}, not {mode!r}")
+    options = {"side": side, "units": units, "points": m, "mode": mode}
+    if mode == "lsq":
+        options["grid"] = str(LsqGrid.parse(grid or DEFAULT_GRID))
+    elif grid not in (None, ""):
+        raise invalid("grid applies to mode=lsq only")
     fit_options(options).validate()
     return options
 
 
 def fit_options(options: dict) -> FitOptions:
-    return FitOptions(side=options.get("side"), points_per_layer=int(options.get("points", DEFAULT_POINTS)))
+    """The fit options of a job's stored options (jobs stored before modes are paper)."""
+    return FitOptions(side=options.get("side"), points_per_layer=int(options.get("points", DEFAULT_POINTS)),
+                      mode=options.get("mode", "paper"), grid=options.get("grid", DEFAULT_GRID))
 
 
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,

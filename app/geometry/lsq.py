@@ -1,0 +1,318 @@
+"""A least-squares B-spline calf (``mode="lsq"``): beyond the paper's 7 x m interpolation.
+
+The paper's surface interpolates 7 x m feature points, so it is only as good as the
+points picked.  Here every resampled section point and then every scan point of the
+calf takes part:
+
+1. **Anatomical parameters.**  u runs around the leg, u = 0 anterior (the calf frame's
+   +y), increasing counter-clockwise seen from above (+z); v runs along it with the
+   seven feature layers (B, ., B1, ., C, ., D; paper section 2.2) at v = k/6 - a
+   monotone cubic (PCHIP) through (layer height, k/6), so v is smooth in z and B, B1,
+   C, D sit at v = 0, 1/3, 2/3, 1 for every leg.  With the knot vectors below fixed
+   too, two lsq records on the same grid correspond control point to control point
+   (what comparisons and population averages need).
+2. **Tensor-product cubic B-spline**, periodic in u (``around`` distinct control
+   columns, uniform knots: the leg has no preferred direction of detail that holds
+   for every leg) and clamped in v (``along`` control rows, uniform interior knots in
+   the anatomical v).  Weights are all 1: a rational surface would make the problem
+   nonlinear and, measured on the real legs, a non-uniform weight net did not pay (the
+   calf holds no conic sections to reproduce).
+3. **First fit** to the 200 x 72 polar resampling of :mod:`app.geometry.sections` (the
+   gaps already bridged in the polar domain, paper 2.1), parameters (u of the ray, v
+   of the section).
+4. **Parameter correction** (Hoschek 1988; The NURBS Book 9.4.1 discusses its use
+   with approximation): the scan points between B and D are projected on the surface
+   (exact foot points by Newton, :mod:`app.geometry.surface_error`), the net is refitted
+   to them at those parameters, :data:`CORRECTIONS` times.  A small second-difference
+   (thin-plate-like) penalty on the net, with a weight fixed relative to the data
+   term's mean diagonal, holds the surface where a hole leaves no points; where the
+   points are dense it is negligible.
+
+Solving: every point's row of the collocation matrix has 4 x 4 non-zeros (the product
+of the u and v cubic bases, scipy's ``BSpline.design_matrix``), so the normal
+equations ``(A^T A + lambda D^T D) x = A^T q`` are assembled sparse (a few thousand
+unknowns at most) and factorized once per round for the three coordinates - never a
+dense solve over the points.
+
+Units: mm; control points (around + 3, along, 3) in the stored (unwrapped) form of
+:mod:`app.geometry.nurbs`.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import BSpline, PchipInterpolator
+from scipy.sparse import csr_matrix, diags, vstack
+from scipy.sparse.linalg import splu
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.nurbs import NurbsSurface, evaluate_derivatives
+from app.geometry.sections import PolarSections
+from app.geometry.surface_error import dense_grid, newton_distances, refine_seeds
+
+DEGREE = 3
+#: rounds of parameter correction against the scan points
+CORRECTIONS = 2
+#: scan points used per correction round at most (a fixed stride): the net has at most
+#: a few thousand unknowns, so 20k points over-determine it tenfold
+MAX_CORRECTION_POINTS = 20_000
+#: foot points for the correction are found to this tolerance (mm; Newton converges
+#: quadratically, so this costs one or two iterations more than the error's 1e-3)
+PROJECTION_TOLERANCE_MM = 1e-7
+PROJECTION_ITERATIONS = 12
+#: weight of the tangential part of the squared distance in SDM (see
+#: :func:`solve_net_squared_distance`)
+TANGENTIAL = 0.01
+#: weight of the second-difference penalty, relative to the mean diagonal of A^T A
+SMOOTHING = 1e-4
+#: the grid's bounds (control rows along x distinct control columns around)
+ALONG_RANGE = (4, 40)
+AROUND_RANGE = (6, 72)
+_GRID = re.compile(r"^\s*(\d+)\s*[xX*]\s*(\d+)\s*$")
+
+
+@dataclass(frozen=True)
+class LsqGrid:
+    """Control net size: ``along`` rows from B to D, ``around`` distinct columns."""
+
+    along: int = 7
+    around: int = 15
+
+    @classmethod
+    def parse(cls, text: str) -> "LsqGrid":
+        """``"ALONGxAROUND"`` (e.g. ``"7x15"``) -> LsqGrid; FitFailure INVALID_OPTION."""
+        match = _GRID.match(str(text))
+        if not match:
+            raise FitFailure(FailureReason.INVALID_OPTION,
+                             f"grid must be ALONGxAROUND, e.g. 7x15 or 12x24, not {text!r}")
+        grid = cls(int(match.group(1)), int(match.group(2)))
+        grid.validate()
+        return grid
+
+    def validate(self) -> None:
+        if not ALONG_RANGE[0] <= self.along <= ALONG_RANGE[1] or not AROUND_RANGE[0] <= self.around <= AROUND_RANGE[1]:
+            raise FitFailure(
+                FailureReason.INVALID_OPTION,
+                f"grid must have {ALONG_RANGE[0]}-{ALONG_RANGE[1]} control rows along the leg and "
+                f"{AROUND_RANGE[0]}-{AROUND_RANGE[1]} around it, not {self.along}x{self.around}",
+            )
+
+    def __str__(self) -> str:
+        return f"{self.along}x{self.around}"
+
+
+def periodic_knots(n: int) -> np.ndarray:
+    """Uniform periodic cubic knots (n + 7,) over [0, 1] for n distinct control columns,
+    written out in full (the stored, unwrapped form)."""
+    return np.arange(-DEGREE, n + DEGREE + 1, dtype=np.float64) / n
+
+
+def clamped_knots(n: int) -> np.ndarray:
+    """Clamped cubic knots (n + 4,) over [0, 1] with uniform interior knots."""
+    interior = np.linspace(0.0, 1.0, n - DEGREE + 1)[1:-1]
+    return np.concatenate([np.zeros(DEGREE + 1), interior, np.ones(DEGREE + 1)])
+
+
+def _periodic_basis(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Column indices (N, 4) in [0, n) and values (N, 4) of the periodic cubic basis."""
+    design = BSpline.design_matrix(np.mod(u, 1.0), periodic_knots(n), DEGREE, extrapolate="periodic")
+    return np.mod(design.indices.reshape(-1, DEGREE + 1), n), design.data.reshape(-1, DEGREE + 1)
+
+
+def _clamped_basis(v: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Column indices (N, 4) and values (N, 4) of the clamped cubic basis, v in [0, 1]."""
+    design = BSpline.design_matrix(np.clip(v, 0.0, 1.0), clamped_knots(n), DEGREE)
+    return design.indices.reshape(-1, DEGREE + 1), design.data.reshape(-1, DEGREE + 1)
+
+
+def collocation(u: np.ndarray, v: np.ndarray, grid: LsqGrid) -> csr_matrix:
+    """Sparse (N, around * along) matrix: row k holds the 16 tensor-product basis values
+    at (u_k, v_k); unknown ``i * along + j`` is control point (column i around, row j)."""
+    iu, bu = _periodic_basis(u, grid.around)
+    iv, bv = _clamped_basis(v, grid.along)
+    cols = (iu[:, :, None] * grid.along + iv[:, None, :]).reshape(len(u), -1)
+    vals = (bu[:, :, None] * bv[:, None, :]).reshape(len(u), -1)
+    rows = np.repeat(np.arange(len(u)), cols.shape[1])
+    return csr_matrix((vals.ravel(), (rows, cols.ravel())), shape=(len(u), grid.around * grid.along))
+
+
+def second_differences(grid: LsqGrid) -> csr_matrix:
+    """Sparse penalty rows: second differences of the net around (periodic) and along."""
+    n_u, n_v = grid.around, grid.along
+    index = np.arange(n_u * n_v).reshape(n_u, n_v)
+    rows = []
+    # around: C[i-1, j] - 2 C[i, j] + C[i+1, j], i cyclic
+    centre = index.ravel()
+    rows.append((np.roll(index, 1, axis=0).ravel(), centre, np.roll(index, -1, axis=0).ravel()))
+    # along: C[i, j-1] - 2 C[i, j] + C[i, j+1], 1 <= j <= n_v - 2
+    rows.append((index[:, :-2].ravel(), index[:, 1:-1].ravel(), index[:, 2:].ravel()))
+    blocks = []
+    for lo, mid, hi in rows:
+        m = len(mid)
+        r = np.repeat(np.arange(m), 3)
+        c = np.column_stack([lo, mid, hi]).ravel()
+        d = np.tile([1.0, -2.0, 1.0], m)
+        blocks.append(csr_matrix((d, (r, c)), shape=(m, n_u * n_v)))
+    return vstack(blocks).tocsr()
+
+
+def solve_net(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
+              smoothing: float = SMOOTHING, weights: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares control net (around, along, 3) of the points (N, 3) mm at parameters
+    (u, v) (N,) each, optionally weighted (N,), with the second-difference penalty
+    weighted ``smoothing`` x the mean diagonal of A^T W A (0: plain least squares).  Sparse normal equations, one LU
+    factorization for x, y and z.  Raises FitFailure DEGENERATE_SURFACE when the points
+    do not determine the net (e.g. a grid far finer than the data with no smoothing)."""
+    a = collocation(u, v, grid)
+    weighted = a if weights is None else diags(weights) @ a
+    normal = (weighted.T @ a).tocsc()
+    if smoothing > 0:
+        penalty = second_differences(grid)
+        scale = smoothing * float(normal.diagonal().mean())
+        normal = (normal + scale * (penalty.T @ penalty)).tocsc()
+    # a tiny ridge keeps an unconstrained control point (no data and no penalty) finite
+    normal = normal + diags(np.full(normal.shape[0], 1e-12 * float(normal.diagonal().max())))
+    try:
+        lu = splu(normal.tocsc())
+        net = lu.solve(np.asarray(weighted.T @ points))
+    except RuntimeError as exc:
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE,
+                         "the least-squares surface is not determined by the scan points") from exc
+    if not np.isfinite(net).all():
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE, "the least-squares surface is not determined by the scan points")
+    return net.reshape(grid.around, grid.along, 3)
+
+
+def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray, normals: np.ndarray,
+                               grid: LsqGrid, smoothing: float = SMOOTHING, weights: np.ndarray | None = None,
+                               tangential: float | None = None) -> np.ndarray:
+    """One step of squared-distance minimization (SDM; Wang, Pottmann & Liu, ACM TOG
+    2006): the net (around, along, 3) minimizing, with the foot parameters (u, v) fixed,
+
+        sum_k w_k [ (n_k . e_k)^2 + tangential * |e_k - (n_k . e_k) n_k|^2 ],
+        e_k = S(u_k, v_k) - q_k,
+
+    n_k (N, 3) the unit surface normals at the foot points.  The normal term is the
+    local second-order model of the squared distance, so the iteration converges fast
+    (tangent-distance minimization is quadratic for small residuals); the small
+    tangential term keeps the system well posed along the surface, where distance
+    does not change.  x, y, z are coupled: 3 x unknowns, sparse, one LU.
+    """
+    tangential = TANGENTIAL if tangential is None else tangential
+    a = collocation(u, v, grid)
+    n = a.shape[1]
+    w = np.ones(len(points)) if weights is None else weights
+    metric = tangential * np.eye(3)[None] + (1.0 - tangential) * normals[:, :, None] * normals[:, None, :]
+    # a point whose foot lies on the border (v = 0 or 1) is off the end of the surface:
+    # its distance is not along the normal, so it pulls by its whole offset (PDM)
+    border = (v <= 0.0) | (v >= 1.0)
+    metric[border] = np.eye(3)
+    blocks = [[None] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(3):
+            blocks[i][j] = (diags(w * metric[:, i, j]) @ a).T @ a
+    from scipy.sparse import bmat
+
+    normal = bmat(blocks).tocsc()
+    rhs = np.concatenate([(a.T @ (w * np.einsum("kij,kj->ki", metric, points)[:, i])) for i in range(3)])
+    if smoothing > 0:
+        penalty = second_differences(grid)
+        scale = smoothing * float(normal.diagonal().mean())
+        pp = penalty.T @ penalty
+        normal = (normal + scale * bmat([[pp, None, None], [None, pp, None], [None, None, pp]])).tocsc()
+    normal = normal + diags(np.full(normal.shape[0], 1e-12 * float(normal.diagonal().max())))
+    try:
+        solution = splu(normal.tocsc()).solve(rhs)
+    except RuntimeError as exc:
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE,
+                         "the least-squares surface is not determined by the scan points") from exc
+    if not np.isfinite(solution).all():
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE, "the least-squares surface is not determined by the scan points")
+    return solution.reshape(3, n).T.reshape(grid.around, grid.along, 3)
+
+
+def surface_from_net(net: np.ndarray) -> NurbsSurface:
+    """The stored (unwrapped, non-rational) surface of a net (around, along, 3)."""
+    n_u, n_v, _ = net.shape
+    control = np.concatenate([net, net[:DEGREE]], axis=0)
+    return NurbsSurface(DEGREE, DEGREE, periodic_knots(n_u), clamped_knots(n_v), np.ascontiguousarray(control),
+                        np.ones(control.shape[:2]), True)
+
+
+def anatomical_v(z: np.ndarray, layer_heights: np.ndarray) -> np.ndarray:
+    """v (N,) of calf-frame heights z (N,) mm: layer k of the 7 at v = k/6 (PCHIP)."""
+    layers = np.asarray(layer_heights, dtype=np.float64)
+    return np.clip(PchipInterpolator(layers, np.linspace(0.0, 1.0, len(layers)), extrapolate=True)(z), 0.0, 1.0)
+
+
+def ray_u(angles_rad: np.ndarray) -> np.ndarray:
+    """u (a,) of polar ray angles (a,) in the calf frame: 0 anterior (+y), counter-clockwise."""
+    return np.mod((angles_rad - np.pi / 2.0) / (2.0 * np.pi), 1.0)
+
+
+def section_points(sections: PolarSections) -> np.ndarray:
+    """(k, a, 3) calf-frame points of resampled sections (NaN rows for missing ones)."""
+    a = sections.angles_rad
+    c = sections.centroids_mm
+    return np.stack([c[:, 0, None] + sections.radii_mm * np.cos(a), c[:, 1, None] + sections.radii_mm * np.sin(a),
+                     np.broadcast_to(sections.heights_mm[:, None], sections.radii_mm.shape)], axis=-1)
+
+
+def project(surface: NurbsSurface, points: np.ndarray, length_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact foot points of points (N, 3) on the surface: distance (N,), u (N,), v (N,)."""
+    from scipy.spatial import cKDTree
+
+    u_grid, v_grid, grid = dense_grid(surface, length_mm)
+    tree = cKDTree(grid.reshape(-1, 3), balanced_tree=False, compact_nodes=False)
+    _, nearest = tree.query(points)
+    iu, iv = np.divmod(nearest, grid.shape[1])
+    return newton_distances(surface, points, *refine_seeds(points, u_grid, v_grid, grid, iu, iv),
+                            iterations=PROJECTION_ITERATIONS, tolerance_mm=PROJECTION_TOLERANCE_MM)
+
+
+@dataclass(frozen=True)
+class LsqFit:
+    """The lsq surface and how its refinement went: ``rms_mm`` (rounds + 1,), the RMS
+    distance of the correction points after the first fit and after each round."""
+
+    surface: NurbsSurface
+    grid: LsqGrid
+    rms_mm: tuple
+
+
+def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_points: np.ndarray,
+                    grid: LsqGrid, corrections: int = CORRECTIONS, smoothing: float = SMOOTHING) -> LsqFit:
+    """The lsq calf (module docstring) from the resampled sections (k, a) between B and
+    D, the 7 layer heights (7,) mm, and the scan points (N, 3) mm of the calf (calf
+    frame, B <= z <= D)."""
+    grid.validate()
+    valid = sections.valid
+    data = section_points(sections)[valid]  # (k', a, 3)
+    u = np.broadcast_to(ray_u(sections.angles_rad)[None, :], data.shape[:2])
+    v = np.broadcast_to(anatomical_v(sections.heights_mm[valid], layer_heights)[:, None], data.shape[:2])
+    # weights 1 / r_k^2: the squares summed are then those of the error index E
+    # (paper eq. 4: distances relative to the section's mean radius r_k)
+    radius = sections.mean_radii()[valid]
+    section_weight = np.broadcast_to((1.0 / radius**2)[:, None], data.shape[:2]).ravel()
+    net = solve_net(data.reshape(-1, 3), u.ravel(), v.ravel(), grid, smoothing, section_weight)
+    surface = surface_from_net(net)
+    length = float(layer_heights[-1] - layer_heights[0])
+    sample = scan_points[:: max(len(scan_points) // MAX_CORRECTION_POINTS, 1)]
+    heights = sections.heights_mm[valid]
+    nearest = np.clip(np.searchsorted(heights, sample[:, 2]), 0, len(heights) - 1)
+    sample_weight = 1.0 / radius[nearest] ** 2
+    rms = []
+    for _ in range(corrections if len(sample) else 0):
+        distance, pu, pv = project(surface, sample, length)
+        rms.append(float(np.sqrt(np.mean(distance**2))))
+        _, su, sv, _, _, _ = evaluate_derivatives(surface, pu, pv)
+        normals = np.cross(su, sv)
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        net = solve_net_squared_distance(sample, pu, pv, normals, grid, smoothing, sample_weight)
+        surface = surface_from_net(net)
+    if corrections and len(sample):
+        rms.append(float(np.sqrt(np.mean(project(surface, sample, length)[0] ** 2))))
+    return LsqFit(surface, grid, tuple(rms))
