@@ -14,6 +14,7 @@ from app.api.auth import authorize
 from app.api.deps import get_session
 from app.api.problems import auth_problems, problems
 from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage
+from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
 from app.errors import NotAcceptable, Unprocessable
 from app.services.keys import Principal
 from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
@@ -122,7 +123,7 @@ def negotiate_surface_format(accept: str | None, query_format: str | None) -> st
 
 @router.get(
     "/records/{record_id}/surface",
-    summary="The surface tessellated, in the original scan's coordinates (STL, GLB or glTF)",
+    summary="The surface: tessellated in the scan's coordinates (STL, GLB, glTF), or exact in the calf frame, mm (STEP, IGES, 3dm, geomdl JSON)",
     response_class=Response,
     responses={
         200: {"description": "The mesh", "content": {m: {"schema": {"type": "string", "format": "binary"}} for m in SURFACE_MEDIA_TYPES.values()},
@@ -135,8 +136,10 @@ def negotiate_surface_format(accept: str | None, query_format: str | None) -> st
 async def get_surface(
     record_id: str,
     request: Request,
-    file_format: Literal["stl", "glb", "gltf"] | None = Query(None, alias="format", description="overrides Accept"),
-    around: int = Query(144, ge=AROUND_RANGE[0], le=AROUND_RANGE[1], description="samples around the leg"),
+    file_format: Literal["stl", "glb", "gltf", "step", "iges", "3dm", "geomdl"] | None = Query(
+        None, alias="format", description="overrides Accept; step, iges, 3dm and geomdl are the exact B-spline "
+        "(no tessellation) in the record's calf frame: B at the origin, z up the leg, y anterior, mm"),
+    around: int = Query(144, ge=AROUND_RANGE[0], le=AROUND_RANGE[1], description="samples around the leg (meshes)"),
     along: int = Query(100, ge=ALONG_RANGE[0], le=ALONG_RANGE[1],
                        description=f"samples along the leg; around x along at most {MAX_SURFACE_SAMPLES}"),
     session: Session = Depends(get_session),
@@ -145,13 +148,19 @@ async def get_surface(
     fmt = negotiate_surface_format(request.headers.get("accept"), file_format)
     service = RecordService(session, principal.tenant_id)
     record = await run_in_threadpool(service.get, record_id)
-    etag = f'"{surface_etag(record.etag, fmt, around, along)}"'
-    matches = [tag.strip() for tag in (request.headers.get("if-none-match") or "").split(",")]
-    if etag in matches or "*" in matches:
+    exact = fmt in CAD_MEDIA_TYPES  # the sampling density does not apply to the exact formats
+    etag = f'"{surface_etag(record.etag, fmt, 0 if exact else around, 0 if exact else along)}"'
+    if fmt in TIMESTAMPED_FORMATS:
+        # STEP, IGES and 3dm writers stamp the time into the file: the same surface, not
+        # the same bytes, so the validator is weak (RFC 9110 8.8.1)
+        etag = f"W/{etag}"
+    # If-None-Match compares weakly: W/"x" matches "x"
+    matches = [tag.strip().removeprefix("W/") for tag in (request.headers.get("if-none-match") or "").split(",")]
+    if etag.removeprefix("W/") in matches or "*" in matches:
         return Response(status_code=304, headers={"ETag": etag})
     data = await run_in_threadpool(service.surface, record, fmt, around, along)
     side = record.side or "leg"
-    filename = f"calf-{record.id[:12]}-{side}.{fmt}"
+    filename = f"calf-{record.id[:12]}-{side}.{CAD_EXTENSIONS.get(fmt, fmt)}"
     return Response(
         content=data,
         media_type=SURFACE_MEDIA_TYPES[fmt],

@@ -10,6 +10,7 @@ from datetime import datetime
 import numpy as np
 from sqlalchemy.orm import Session
 
+from app.cad import CAD_MEDIA_TYPES, export_surface
 from app.db.models import Record
 from app.db.repositories import RecordRepository
 from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
@@ -19,7 +20,10 @@ from app.geometry.landmarks import LANDMARK_NAMES
 from app.geometry.measure import girths, surface_height_range
 from app.geometry.record import CalfRecord
 
-SURFACE_MEDIA_TYPES = {"stl": "model/stl", "glb": "model/gltf-binary", "gltf": "model/gltf+json"}
+MESH_MEDIA_TYPES = {"stl": "model/stl", "glb": "model/gltf-binary", "gltf": "model/gltf+json"}
+#: the surface's formats: meshes (tessellated, scan coordinates) and the exact CAD ones
+#: (the B-spline itself, calf frame mm; :mod:`app.cad`)
+SURFACE_MEDIA_TYPES = {**MESH_MEDIA_TYPES, **CAD_MEDIA_TYPES}
 #: tessellation density bounds for exports (samples around / along the leg), and their
 #: product: 720 x 500 samples are 0.5 mm apart around a 400 mm girth and along a 250 mm
 #: calf, 720k triangles (a 36 MB STL), finer than any garment CAD needs
@@ -72,7 +76,10 @@ class RecordService:
 
     @staticmethod
     def surface(record: Record, file_format: str, around: int, along: int) -> bytes:
-        """The record's surface tessellated (around x along samples) in scan coordinates."""
+        """The record's surface: tessellated (around x along samples) in scan coordinates
+        for a mesh format; exact, in the calf frame (mm), for a CAD format."""
+        if file_format in CAD_MEDIA_TYPES:
+            return export_surface(_parse(record.body).surface, file_format)
         for name, value, (lo, hi) in (("around", around, AROUND_RANGE), ("along", along, ALONG_RANGE)):
             if not lo <= value <= hi:
                 raise Unprocessable(f"{name} must be between {lo} and {hi}, not {value}", code="invalid_density")
