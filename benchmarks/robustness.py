@@ -1,7 +1,9 @@
 """Robustness benchmark: the fitting core on a generated corpus and on the real legs.
 
 Run:  .venv/bin/python benchmarks/robustness.py [N_CASES] [SEED]   (default 220, 7)
-Writes benchmarks/results/robustness.md and robustness.json.
+Writes benchmarks/results/robustness.md and robustness.json; with another seed than the
+default 7 (a hold-out corpus: scans the rules were not developed on),
+robustness-seedN.md and robustness-seedN.json.
 
 The corpus (benchmarks/corpus) is made at run time from the CC0 MakeHuman legs sized by
 ANSUR II subjects; nothing generated is stored.  "Right" for a fitted case means the
@@ -37,6 +39,10 @@ RESULTS = ROOT / "benchmarks" / "results"
 REAL = [("bodyparts3d_right_leg.stl", None, (215, 378, 358)), ("vh_female_skin.glb", "left", (224, 368, 369)),
         ("vh_female_skin.glb", "right", (222, 359, 354)), ("vh_male_skin.glb", "left", (223, 404, 392)),
         ("vh_male_skin.glb", "right", (223, 406, 393))]
+
+
+def _suffix(seed: int) -> str:
+    return "" if seed == 7 else f"-seed{seed}"
 
 
 def right(r: dict) -> bool:
@@ -76,7 +82,7 @@ def main() -> None:
         seconds = time.perf_counter() - started
         tape = fit.landmarks.tape_girths_mm
         real.append({"file": file, "side": side, "seconds": seconds, "tape": tape, "reference": {"B": b, "C": c, "D": d}})
-    (RESULTS / "robustness.json").write_text(json.dumps({"cases": rows, "real": real}, indent=1, default=str))
+    (RESULTS / f"robustness{_suffix(seed)}.json").write_text(json.dumps({"cases": rows, "real": real}, indent=1, default=str))
     write_markdown(rows, real, n, seed)
 
 
@@ -129,7 +135,7 @@ def write_markdown(rows, real, n, seed) -> None:
         lines.append(f"- {r['case']}: expected {r['expect']}, got {r['outcome']}"
                      + (f" ({r.get('detail', '')[:140]})" if r.get("detail") else
                         f" (girth errors B {r['girth_error_mm']['B']:+.1f}, C {r['girth_error_mm']['C']:+.1f} mm; C height {r['height_error_mm']['C']:+.0f} mm)"))
-    (RESULTS / "robustness.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / f"robustness{_suffix(seed)}.md").write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":
