@@ -175,3 +175,29 @@ class DesignOut(BaseModel):
     hot_spots: list
     knitting_spec: list
     links: dict[str, str]
+
+
+class GirthDifference(BaseModel):
+    height_mm: float = Field(description="above the alignment landmark")
+    girth_a_mm: float = Field(description="tape girth of record a")
+    girth_b_mm: float
+    difference_mm: float = Field(description="b - a")
+
+
+class VolumeChange(BaseModel):
+    low_mm: float = Field(description="from this height above the alignment landmark (a's B, or the shared start)")
+    high_mm: float = Field(description="to this height (a's D, or the shared end)")
+    a_ml: float
+    b_ml: float
+    change_ml: float = Field(description="b - a")
+    change_percent: float
+
+
+class ComparisonOut(BaseModel):
+    record_a: str
+    record_b: str
+    align: str
+    shift_mm: float = Field(description="b's calf-frame z = a's z + shift_mm")
+    girths: list[GirthDifference] = Field(description="every 5 mm over the heights both records cover")
+    volume: VolumeChange
+    largest_girth_change_mm: float | None

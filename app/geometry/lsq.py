@@ -20,19 +20,26 @@ calf takes part:
 3. **First fit** to the 200 x 72 polar resampling of :mod:`app.geometry.sections` (the
    gaps already bridged in the polar domain, paper 2.1), parameters (u of the ray, v
    of the section).
-4. **Parameter correction** (Hoschek 1988; The NURBS Book 9.4.1 discusses its use
-   with approximation): the scan points between B and D are projected on the surface
-   (exact foot points by Newton, :mod:`app.geometry.surface_error`), the net is refitted
-   to them at those parameters, :data:`CORRECTIONS` times.  A small second-difference
-   (thin-plate-like) penalty on the net, with a weight fixed relative to the data
-   term's mean diagonal, holds the surface where a hole leaves no points; where the
-   points are dense it is negligible.
+4. **Refinement against the scan points** (:data:`CORRECTIONS` rounds): the scan
+   points between B and D are projected on the surface (exact foot points by Newton,
+   :mod:`app.geometry.surface_error`), and the net is refitted with those foot
+   parameters by squared-distance minimization (SDM; Wang, Pottmann & Liu, ACM TOG
+   25(2), 2006): the normal part of each point's offset is minimized, the tangential
+   part only weakly (:data:`TANGENTIAL`).  Plain parameter correction (Hoschek 1988:
+   project, refit all three offsets, repeat) converges linearly and slowly, because
+   the refit drags the surface along its own tangents; SDM follows the local
+   quadratic model of the squared distance.  Measured on the real legs at 7 x 15: two
+   rounds of plain correction lower E by ~10%, two rounds of SDM by ~50%.
+   A small second-difference (thin-plate-like) penalty on the net, with a weight fixed
+   relative to the data term's mean diagonal (:data:`SMOOTHING`), holds the surface
+   where a hole leaves no points; where the points are dense it is negligible.
 
 Solving: every point's row of the collocation matrix has 4 x 4 non-zeros (the product
 of the u and v cubic bases, scipy's ``BSpline.design_matrix``), so the normal
-equations ``(A^T A + lambda D^T D) x = A^T q`` are assembled sparse (a few thousand
-unknowns at most) and factorized once per round for the three coordinates - never a
-dense solve over the points.
+equations ``(A^T W A + lambda D^T D) x = A^T W q`` (W: the weights 1/r_k^2 that make
+the squares those of the error index E, paper eq. 4; SDM couples x, y and z through
+3 x 3 blocks) are assembled sparse (a few thousand unknowns at most) and factorized
+once per round - never a dense solve over the points.
 
 Units: mm; control points (around + 3, along, 3) in the stored (unwrapped) form of
 :mod:`app.geometry.nurbs`.
@@ -51,7 +58,7 @@ from scipy.sparse.linalg import splu
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.nurbs import NurbsSurface, evaluate_derivatives
 from app.geometry.sections import PolarSections
-from app.geometry.surface_error import dense_grid, newton_distances, refine_seeds
+from app.geometry.surface_error import foot_points
 
 DEGREE = 3
 #: rounds of parameter correction against the scan points
@@ -59,10 +66,6 @@ CORRECTIONS = 2
 #: scan points used per correction round at most (a fixed stride): the net has at most
 #: a few thousand unknowns, so 20k points over-determine it tenfold
 MAX_CORRECTION_POINTS = 20_000
-#: foot points for the correction are found to this tolerance (mm; Newton converges
-#: quadratically, so this costs one or two iterations more than the error's 1e-3)
-PROJECTION_TOLERANCE_MM = 1e-7
-PROJECTION_ITERATIONS = 12
 #: weight of the tangential part of the squared distance in SDM (see
 #: :func:`solve_net_squared_distance`)
 TANGENTIAL = 0.01
@@ -261,18 +264,6 @@ def section_points(sections: PolarSections) -> np.ndarray:
                      np.broadcast_to(sections.heights_mm[:, None], sections.radii_mm.shape)], axis=-1)
 
 
-def project(surface: NurbsSurface, points: np.ndarray, length_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Exact foot points of points (N, 3) on the surface: distance (N,), u (N,), v (N,)."""
-    from scipy.spatial import cKDTree
-
-    u_grid, v_grid, grid = dense_grid(surface, length_mm)
-    tree = cKDTree(grid.reshape(-1, 3), balanced_tree=False, compact_nodes=False)
-    _, nearest = tree.query(points)
-    iu, iv = np.divmod(nearest, grid.shape[1])
-    return newton_distances(surface, points, *refine_seeds(points, u_grid, v_grid, grid, iu, iv),
-                            iterations=PROJECTION_ITERATIONS, tolerance_mm=PROJECTION_TOLERANCE_MM)
-
-
 @dataclass(frozen=True)
 class LsqFit:
     """The lsq surface and how its refinement went: ``rms_mm`` (rounds + 1,), the RMS
@@ -306,7 +297,7 @@ def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_poi
     sample_weight = 1.0 / radius[nearest] ** 2
     rms = []
     for _ in range(corrections if len(sample) else 0):
-        distance, pu, pv = project(surface, sample, length)
+        distance, pu, pv = foot_points(surface, sample, length)
         rms.append(float(np.sqrt(np.mean(distance**2))))
         _, su, sv, _, _, _ = evaluate_derivatives(surface, pu, pv)
         normals = np.cross(su, sv)
@@ -314,5 +305,5 @@ def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_poi
         net = solve_net_squared_distance(sample, pu, pv, normals, grid, smoothing, sample_weight)
         surface = surface_from_net(net)
     if corrections and len(sample):
-        rms.append(float(np.sqrt(np.mean(project(surface, sample, length)[0] ** 2))))
+        rms.append(float(np.sqrt(np.mean(foot_points(surface, sample, length)[0] ** 2))))
     return LsqFit(surface, grid, tuple(rms))

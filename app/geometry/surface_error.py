@@ -206,6 +206,25 @@ def newton_distances(
     return best, u, v
 
 
+#: foot points for fitting and comparing are found to this tolerance (mm; Newton
+#: converges quadratically, so this costs one or two iterations more than 1e-3)
+FOOT_TOLERANCE_MM = 1e-7
+FOOT_ITERATIONS = 12
+
+
+def foot_points(surface: NurbsSurface, points: np.ndarray, length_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Exact foot points of points (N, 3) on the surface (Algorithm 1's nearest grid
+    vertex, one grid Gauss-Newton step, then Newton to :data:`FOOT_TOLERANCE_MM`).
+    ``length_mm``: the surface's extent along z (sets the grid's density).  Returns
+    distance (N,), u (N,), v (N,)."""
+    u_grid, v_grid, grid = dense_grid(surface, length_mm)
+    tree = cKDTree(grid.reshape(-1, 3), balanced_tree=False, compact_nodes=False)
+    _, nearest = tree.query(points)
+    iu, iv = np.divmod(nearest, grid.shape[1])
+    return newton_distances(surface, points, *refine_seeds(points, u_grid, v_grid, grid, iu, iv),
+                            iterations=FOOT_ITERATIONS, tolerance_mm=FOOT_TOLERANCE_MM)
+
+
 def error_statistics(
     surface: NurbsSurface,
     points: np.ndarray,

@@ -76,3 +76,57 @@ def test_bad_lsq_options_are_refused_in_words(client, params, words):
     response = client.post("/api/v1/scans", content=data, params=params, headers={"Content-Type": "model/stl"})
     assert response.status_code == 422 and response.headers["content-type"] == "application/problem+json"
     assert words in response.text
+
+
+@pytest.fixture(scope="module")
+def two_fits_of_one_leg(client, lsq_record):
+    """The same right leg uploaded again in paper mode: a second record of that leg."""
+    data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
+    response = client.post("/api/v1/scans", content=data, headers={"Content-Type": "model/stl"})
+    job = wait_for_job(client, response.headers["location"])
+    assert job["status"] == "succeeded", job
+    return lsq_record["id"], job["record_id"]
+
+
+def test_a_record_compared_with_itself_over_http_gives_zeros(client, lsq_record):
+    rid = lsq_record["id"]
+    body = client.get(f"/api/v1/records/{rid}/compare/{rid}").json()
+    assert body["volume"]["change_ml"] == 0.0 and body["volume"]["change_percent"] == 0.0
+    assert all(g["difference_mm"] == 0.0 for g in body["girths"]) and len(body["girths"]) > 40
+    heights = [g["height_mm"] for g in body["girths"]]
+    assert np.allclose(np.diff(heights), 5.0)
+
+
+def test_two_fits_of_one_leg_agree_and_the_map_comes_as_glb_and_csv(client, two_fits_of_one_leg):
+    """lsq and paper fits of the same scan: the same leg within a few ml and mm."""
+    import io
+
+    import trimesh
+
+    a, b = two_fits_of_one_leg
+    body = client.get(f"/api/v1/records/{a}/compare/{b}", params={"align": "C"}).json()
+    assert body["align"] == "C" and abs(body["volume"]["change_percent"]) < 1.0
+    assert 500 < body["volume"]["a_ml"] < 3000
+    assert max(abs(g["difference_mm"]) for g in body["girths"]) < 5.0
+    glb = client.get(f"/api/v1/records/{a}/compare/{b}", headers={"Accept": "model/gltf-binary"})
+    assert glb.status_code == 200 and glb.headers["content-type"] == "model/gltf-binary"
+    scene = trimesh.load(io.BytesIO(glb.content), file_type="glb")
+    mesh = next(iter(scene.geometry.values()))
+    assert len(np.unique(mesh.visual.vertex_colors[:, :3], axis=0)) > 20  # a colour map, not one colour
+    csv = client.get(f"/api/v1/records/{a}/compare/{b}", params={"format": "csv"})
+    assert csv.headers["content-type"].startswith("text/csv")
+    rows = np.genfromtxt(io.StringIO(csv.text), delimiter=",", skip_header=1)
+    assert rows.shape[1] == 5 and np.nanmedian(np.abs(rows[:, 4])) < 0.5
+
+
+def test_comparison_refusals(client, lsq_record, two_fits_of_one_leg):
+    rid = lsq_record["id"]
+    assert client.get(f"/api/v1/records/{rid}/compare/nope").status_code == 404
+    assert client.get(f"/api/v1/records/{rid}/compare/{rid}", headers={"Accept": "image/png"}).status_code == 406
+    assert client.get(f"/api/v1/records/{rid}/compare/{rid}", params={"align": "Q"}).status_code == 422
+    data = (REAL / "vh_female_skin.glb").read_bytes()
+    job = wait_for_job(client, client.post("/api/v1/scans", content=data, params={"side": "left"},
+                                           headers={"Content-Type": "model/gltf-binary"}).headers["location"])
+    right = lsq_record["id"]  # BodyParts3D's leg is a right leg
+    response = client.get(f"/api/v1/records/{right}/compare/{job['record_id']}")
+    assert response.status_code == 422 and "different_legs" in response.text and "same leg" in response.text
