@@ -201,3 +201,30 @@ class ComparisonOut(BaseModel):
     girths: list[GirthDifference] = Field(description="every 5 mm over the heights both records cover")
     volume: VolumeChange
     largest_girth_change_mm: float | None
+
+
+class PopulationRequest(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+    record_ids: list[Annotated[str, Field(min_length=1, max_length=64)]] = Field(
+        min_length=2, max_length=200, description="the records of the population (2-200); records that are not lsq "
+        "records on the grid are refitted on their stored scans")
+    grid: str | None = Field(None, pattern=r"^[0-9]{1,2}[xX][0-9]{1,2}$",
+                             description="lsq grid ALONGxAROUND; default: the lsq records' most common, else 7x15")
+
+
+class PopulationMode(BaseModel):
+    mode: int
+    variance_share: float = Field(description="share of the population's total variance")
+    sd_mm: float = Field(description="RMS movement of the control points at 1 standard deviation")
+
+
+class PopulationOut(BaseModel):
+    record_id: str = Field(description="the average calf, stored as a record (source 'population')")
+    n: int
+    grid: str
+    modes: list[PopulationMode]
+    girth_percentiles: dict[str, dict[str, float]] = Field(description="landmark -> p5, p25, p50, p75, p95 of the tape girths, mm")
+    refitted: list[str] = Field(description="records refitted in mode lsq on their stored scans")
+    mirrored: list[str] = Field(description="left legs mirrored into right legs")
+    links: dict[str, str]

@@ -63,6 +63,10 @@ class RecordService:
         body = parsed.to_dict()
         return self.records.add(body, record_etag(body), "import", None)
 
+    def add_population_average(self, body: dict) -> Record:
+        """Store the average calf of a population (already a valid record body)."""
+        return self.records.add(body, record_etag(body), "population", None)
+
     def delete(self, record_id: str) -> None:
         self.records.delete(self.get(record_id))
 

@@ -130,3 +130,37 @@ def test_comparison_refusals(client, lsq_record, two_fits_of_one_leg):
     right = lsq_record["id"]  # BodyParts3D's leg is a right leg
     response = client.get(f"/api/v1/records/{right}/compare/{job['record_id']}")
     assert response.status_code == 422 and "different_legs" in response.text and "same leg" in response.text
+
+
+def test_a_population_of_records_gives_the_average_calf_modes_and_percentiles(client, two_fits_of_one_leg):
+    """The lsq record, a paper record of the same scan (refitted in mode lsq on its
+    stored scan) and a left leg (refitted, mirrored): three calves."""
+    lsq_id, paper_id = two_fits_of_one_leg
+    data = (REAL / "vh_female_skin.glb").read_bytes()
+    left = wait_for_job(client, client.post("/api/v1/scans", content=data, params={"side": "left"},
+                                            headers={"Content-Type": "model/gltf-binary"}).headers["location"])
+    response = client.post("/api/v1/populations", json={"record_ids": [lsq_id, paper_id, left["record_id"]]})
+    assert response.status_code == 201, response.text
+    body = response.json()
+    assert body["n"] == 3 and body["grid"] == "12x24"  # the lsq record's grid
+    assert set(body["refitted"]) == {paper_id, left["record_id"]} and body["mirrored"] == [left["record_id"]]
+    assert 1 <= len(body["modes"]) <= 2 and 0 < body["modes"][0]["variance_share"] <= 1
+    percentiles = body["girth_percentiles"]
+    assert set(percentiles) == {"B", "B1", "C", "D"} and percentiles["C"]["p5"] <= percentiles["C"]["p95"]
+    average = client.get(response.headers["location"])
+    assert average.status_code == 200 and average.json()["source"] == "population"
+    assert average.json()["fit"]["population"]["n"] == 3
+    step = client.get(f"{response.headers['location']}/surface", params={"format": "step"})
+    assert step.status_code == 200
+
+
+def test_population_refusals(client, lsq_record):
+    rid = lsq_record["id"]
+    one = client.post("/api/v1/populations", json={"record_ids": [rid, rid]})
+    assert one.status_code == 422 and "invalid_population" in one.text
+    assert client.post("/api/v1/populations", json={"record_ids": [rid, "nope"]}).status_code == 404
+    imported = client.post("/api/v1/records", json={k: v for k, v in lsq_record.items()
+                                                    if k not in ("id", "source", "created_at", "scan_id")})
+    assert imported.status_code == 201
+    paper = client.post("/api/v1/populations", json={"record_ids": [rid, imported.json()["id"]], "grid": "7x15"})
+    assert paper.status_code == 422 and "not_lsq" in paper.text and "imported" in paper.text
