@@ -19,7 +19,8 @@ calf takes part:
    calf holds no conic sections to reproduce).
 3. **First fit** to the 200 x 72 polar resampling of :mod:`app.geometry.sections` (the
    gaps already bridged in the polar domain, paper 2.1), parameters (u of the ray, v
-   of the section).
+   of the section): data on a tensor grid, so two small 1-D least-squares problems
+   (:func:`solve_grid`).
 4. **Refinement against the scan points** (:data:`CORRECTIONS` rounds): the scan
    points between B and D are projected on the surface (exact foot points by Newton,
    :mod:`app.geometry.surface_error`), and the net is refitted with those foot
@@ -189,6 +190,34 @@ def solve_net(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
     return net.reshape(grid.around, grid.along, 3)
 
 
+def _dense_basis(indices: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
+    out = np.zeros((len(indices), n))
+    np.add.at(out, (np.repeat(np.arange(len(indices)), indices.shape[1]), indices.ravel()), values.ravel())
+    return out
+
+
+def solve_grid(data: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
+               row_weights: np.ndarray | None = None) -> np.ndarray:
+    """Least-squares net (around, along, 3) of gridded points data (k, a, 3) at ray
+    parameters u (a,) and section parameters v (k,), each row weighted (k,): with data
+    on a tensor grid the problem separates into two small 1-D ones (de Boor, *A
+    Practical Guide to Splines*, ch. XVII):  C = (Bv' W Bv)^-1 Bv' W P Bu (Bu' Bu)^-1."""
+    bu = _dense_basis(*_periodic_basis(u, grid.around), grid.around)  # (a, around)
+    bv = _dense_basis(*_clamped_basis(v, grid.along), grid.along)  # (k, along)
+    w = np.ones(len(v)) if row_weights is None else row_weights
+    left = bv.T @ (w[:, None] * bv)
+    right = bu.T @ bu
+    for m in (left, right):  # a tiny ridge: a basis function without data stays finite
+        m[np.diag_indices_from(m)] += 1e-12 * m.diagonal().max()
+    try:
+        along_solved = np.linalg.solve(left, np.einsum("ka,kc->ac", bv * w[:, None], data.reshape(len(v), -1)))
+        along_solved = along_solved.reshape(grid.along, len(u), 3)
+        net = np.linalg.solve(right, np.einsum("ai,jac->ijc", bu, along_solved).reshape(grid.around, -1))
+    except np.linalg.LinAlgError as exc:
+        raise FitFailure(FailureReason.DEGENERATE_SURFACE, "the least-squares surface is not determined by the sections") from exc
+    return net.reshape(grid.around, grid.along, 3)
+
+
 def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray, normals: np.ndarray,
                                grid: LsqGrid, smoothing: float = SMOOTHING, weights: np.ndarray | None = None,
                                tangential: float | None = None) -> np.ndarray:
@@ -287,8 +316,7 @@ def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_poi
     # weights 1 / r_k^2: the squares summed are then those of the error index E
     # (paper eq. 4: distances relative to the section's mean radius r_k)
     radius = sections.mean_radii()[valid]
-    section_weight = np.broadcast_to((1.0 / radius**2)[:, None], data.shape[:2]).ravel()
-    net = solve_net(data.reshape(-1, 3), u.ravel(), v.ravel(), grid, smoothing, section_weight)
+    net = solve_grid(data, u[0], v[:, 0], grid, 1.0 / radius**2)
     surface = surface_from_net(net)
     length = float(layer_heights[-1] - layer_heights[0])
     sample = scan_points[:: max(len(scan_points) // MAX_CORRECTION_POINTS, 1)]
