@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from datetime import date, datetime, time, timedelta, timezone
 from typing import Literal
 
 from fastapi import APIRouter, Body, Depends, Query, Request, Response
@@ -11,12 +12,15 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
-from app.api.deps import get_session
+from app.api.deps import get_session, get_store
 from app.api.problems import auth_problems, problems
-from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage
+from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage, ScanPointsOut
 from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
 from app.errors import NotAcceptable, Unprocessable
+from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
+from app.services.deviations import DeviationService
 from app.services.keys import Principal
+from app.services.storage import ScanStore
 from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
 
 #: comma-separated decimal numbers (mm)
@@ -48,15 +52,20 @@ def record_summary(record) -> dict:
     }
 
 
-@router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination)",
-            responses=problems(s400="invalid_cursor"))
+@router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination), by side and date",
+            responses=problems(s400="invalid_cursor", s422="invalid_request (until before since)"))
 def list_records(
     limit: int = Query(50, ge=1, le=500),
     cursor: str | None = Query(None, pattern=r"^[A-Za-z0-9_=-]{1,200}$", description="next_cursor of the previous page"),
+    side: Literal["left", "right", "unknown"] | None = Query(None, description="only records of this side"),
+    since: date | None = Query(None, description="only records created on or after this day (UTC)"),
+    until: date | None = Query(None, description="only records created before the end of this day (UTC)"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
-    rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor)
+    start = datetime.combine(since, time.min, tzinfo=timezone.utc) if since else None
+    end = datetime.combine(until + timedelta(days=1), time.min, tzinfo=timezone.utc) if until else None
+    rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor, side, start, end)
     return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
 
 
@@ -187,3 +196,17 @@ async def get_measurements(
         if len(extra) > 200:
             raise Unprocessable("at most 200 heights per request", code="invalid_heights")
     return await run_in_threadpool(RecordService(session, principal.tenant_id).measurements, record_id, extra)
+
+
+@router.get("/records/{record_id}/scan-points", response_model=ScanPointsOut,
+            summary="The scan's points of the calf (calf frame, mm) and their distance to the surface",
+            responses=problems(s404="record_not_found, scan_not_found (an imported or population record)",
+                               s422="scan_unreadable"))
+async def get_scan_points(
+    record_id: str,
+    limit: int = Query(20000, ge=100, le=MAX_SCAN_POINTS, description="at most this many points (a fixed stride)"),
+    session: Session = Depends(get_session),
+    store: ScanStore = Depends(get_store),
+    principal: Principal = Depends(authorize("read")),
+):
+    return await run_in_threadpool(DeviationService(session, principal.tenant_id, store).scan_points, record_id, limit)

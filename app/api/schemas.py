@@ -228,3 +228,13 @@ class PopulationOut(BaseModel):
     refitted: list[str] = Field(description="records refitted in mode lsq on their stored scans")
     mirrored: list[str] = Field(description="left legs mirrored into right legs")
     links: dict[str, str]
+
+
+class ScanPointsOut(BaseModel):
+    record_id: str
+    frame: str
+    n_points: int
+    points: list[list[float]] = Field(description="[x, y, z] in the record's calf frame, mm")
+    distance_mm: list[float] = Field(description="each point's distance to the surface, mm")
+    median_distance_mm: float | None
+    max_distance_mm: float | None

@@ -214,9 +214,17 @@ class RecordRepository(_Owned):
             error_index=(body.get("fit") or {}).get("error_index"),
         ))
 
-    def page(self, limit: int, after: tuple[datetime, str] | None) -> list[Record]:
-        """Newest first, keyset pagination on (created_at, id)."""
+    def page(self, limit: int, after: tuple[datetime, str] | None, side: str | None = None,
+             since: datetime | None = None, until: datetime | None = None) -> list[Record]:
+        """Newest first, keyset pagination on (created_at, id); optionally only one side
+        ("left", "right", or "unknown" for none) and created in [since, until)."""
         query = self._scoped(select(Record)).order_by(Record.created_at.desc(), Record.id.desc()).limit(limit)
+        if side is not None:
+            query = query.where(Record.side.is_(None) if side == "unknown" else Record.side == side)
+        if since is not None:
+            query = query.where(Record.created_at >= since)
+        if until is not None:
+            query = query.where(Record.created_at < until)
         if after is not None:
             created, record_id = after
             query = query.where(

@@ -70,9 +70,12 @@ class RecordService:
     def delete(self, record_id: str) -> None:
         self.records.delete(self.get(record_id))
 
-    def page(self, limit: int, cursor: str | None) -> tuple[list[Record], str | None]:
+    def page(self, limit: int, cursor: str | None, side: str | None = None, since: datetime | None = None,
+             until: datetime | None = None) -> tuple[list[Record], str | None]:
         after = decode_cursor(cursor) if cursor else None
-        rows = self.records.page(limit + 1, after)
+        if since is not None and until is not None and until <= since:
+            raise Unprocessable("until must be after since", code="invalid_request")
+        rows = self.records.page(limit + 1, after, side, since, until)
         more = len(rows) > limit
         rows = rows[:limit]
         next_cursor = encode_cursor(rows[-1].created_at, rows[-1].id) if more and rows else None

@@ -164,3 +164,17 @@ def test_population_refusals(client, lsq_record):
     assert imported.status_code == 201
     paper = client.post("/api/v1/populations", json={"record_ids": [rid, imported.json()["id"]], "grid": "7x15"})
     assert paper.status_code == 422 and "not_lsq" in paper.text and "imported" in paper.text
+
+
+def test_scan_points_lie_on_the_surface_and_records_filter_by_side_and_date(client, lsq_record):
+    body = client.get(f"/api/v1/records/{lsq_record['id']}/scan-points", params={"limit": 5000}).json()
+    assert 1000 < body["n_points"] <= 5000 and len(body["points"]) == len(body["distance_mm"]) == body["n_points"]
+    assert body["median_distance_mm"] < 0.3 and body["max_distance_mm"] <= 15.0
+    z = np.array(body["points"])[:, 2]
+    assert z.min() >= -1.0 and z.max() <= lsq_record["landmarks"]["D"]["height_mm"] + 1.0
+    right = client.get("/api/v1/records", params={"side": "right"}).json()["items"]
+    assert right and all(r["side"] == "right" for r in right)
+    assert lsq_record["id"] in [r["id"] for r in right]
+    assert client.get("/api/v1/records", params={"side": "left", "since": "2000-01-01"}).status_code == 200
+    assert client.get("/api/v1/records", params={"until": "2000-01-01"}).json()["items"] == []
+    assert client.get("/api/v1/records", params={"since": "2030-01-02", "until": "2030-01-01"}).status_code == 422
