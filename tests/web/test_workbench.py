@@ -1,0 +1,181 @@
+"""The web workbench in a real browser: Playwright drives Debian's Chromium against a
+live ``calf-nurbs serve`` (auth required, a real key) on a temporary data dir.
+
+Skips, saying why, where there is no Chromium or no Playwright (``make test`` on a
+machine without them); ``.ci/run`` installs Chromium and runs these.  Screenshots of
+each screen are written to docs/screenshots/ (the README shows them).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from benchmarks.served import free_port, start, stop, wait_ready
+from tests.conftest import REAL
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = ROOT / ".venv" / "bin"
+CHROMIUM = os.environ.get("CALF_CHROMIUM", "/usr/bin/chromium")
+SHOTS = ROOT / "docs" / "screenshots"
+
+sync_api = pytest.importorskip("playwright.sync_api", reason="Playwright (the test extra) is not installed")
+expect = sync_api.expect
+if not (Path(CHROMIUM).exists() or shutil.which(CHROMIUM)):
+    pytest.skip(f"no Chromium at {CHROMIUM} (apt-get install chromium; .ci/run does)", allow_module_level=True)
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    data_dir = tmp_path_factory.mktemp("workbench") / "var"
+    env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "1", "CALF_AUTH": "required",
+           "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
+    created = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", "clinic", "--scopes", "admin"],
+                             env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    key = created.stdout.strip().splitlines()[-1]
+    port = free_port()
+    server = start(["serve", "--port", str(port)], env)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_ready(base, server)
+        yield base, key
+    finally:
+        stop(server)
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as playwright:
+        chromium = playwright.chromium.launch(executable_path=CHROMIUM, args=["--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        yield chromium
+        chromium.close()
+
+
+@pytest.fixture
+def page(browser):
+    context = browser.new_context(viewport={"width": 1280, "height": 800}, accept_downloads=True)
+    page = context.new_page()
+    page.console_errors = []
+    page.on("console", lambda message: message.type == "error" and page.console_errors.append(message.text))
+    page.on("pageerror", lambda error: page.console_errors.append(str(error)))
+    yield page
+    context.close()
+
+
+def sign_in(page, base, key):
+    page.goto(f"{base}/")
+    page.get_by_label("API key of your clinic").fill(key)
+    page.get_by_role("button", name="Sign in").click()
+    page.wait_for_url("**/#/records")
+
+
+def canvas_has_a_picture(page, selector: str) -> bool:
+    """The WebGL canvas is not blank: many pixels differ from the background."""
+    return page.evaluate("""(selector) => {
+        const source = document.querySelector(selector + ' canvas');
+        const copy = document.createElement('canvas');
+        copy.width = source.width; copy.height = source.height;
+        const ctx = copy.getContext('2d');
+        ctx.drawImage(source, 0, 0);
+        const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+        let differing = 0;
+        for (let i = 0; i < data.length; i += 4 * 7) {
+            if (Math.abs(data[i] - 238) + Math.abs(data[i + 1] - 241) + Math.abs(data[i + 2] - 245) > 30) differing++;
+        }
+        return differing > 500;
+    }""", selector)
+
+
+def test_the_first_view_is_quick_and_a_wrong_key_is_refused(served, page):
+    base, _ = served
+    started = time.perf_counter()
+    page.goto(f"{base}/")
+    page.get_by_label("API key of your clinic").wait_for()
+    assert time.perf_counter() - started < 1.0
+    csp = page.request.get(f"{base}/").headers["content-security-policy"]
+    assert "script-src 'self'" in csp and "unsafe" not in csp
+    page.screenshot(path=str(SHOTS / "sign-in.png"))
+    page.get_by_label("API key of your clinic").fill("cnk_not_a_real_key")
+    page.get_by_role("button", name="Sign in").click()
+    error = page.locator("#sign-in-error")
+    error.wait_for()
+    assert "not accepted" in error.inner_text()
+    assert page.evaluate("sessionStorage.length") == 0
+
+
+def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_path):
+    base, key = served
+    sign_in(page, base, key)
+    page.get_by_role("link", name="Upload").click()
+    page.set_input_files("#scan-file", str(REAL / "bodyparts3d_right_leg.stl"))
+    page.screenshot(path=str(SHOTS / "upload.png"))
+    page.get_by_role("button", name="Upload and fit").click()
+    page.wait_for_url("**/#/records/*", timeout=120_000)
+    page.locator("#measurement-sheet").wait_for()
+    page.locator("#record-viewer canvas").wait_for()
+    expect(page.locator("#record-viewer .tag")).to_have_count(4, timeout=30_000)
+    page.get_by_label("Error colours (distance to the scan)").check()
+    page.wait_for_timeout(500)
+    assert canvas_has_a_picture(page, "#record-viewer")
+    sheet = page.locator("#measurement-sheet").inner_text()
+    for name in ("B", "B1", "C", "D"):
+        assert page.locator(f"#measurement-sheet tr[data-landmark={name}]").count() == 1
+    girth_c = float(page.locator("#measurement-sheet tr[data-landmark=C] td").nth(1).inner_text().split()[0])
+    assert 360 < girth_c < 400, sheet  # the BodyParts3D calf: 378 mm by tape
+    page.get_by_label("Girth at a height above B").fill("100")
+    page.get_by_role("button", name="Measure").click()
+    page.locator("#height-answer").filter(has_text="tape girth").wait_for()
+    page.wait_for_selector("svg.chart")
+    page.screenshot(path=str(SHOTS / "record.png"))
+
+    page.get_by_role("link", name="New design").click()
+    page.get_by_label("Stiffness K, N/cm per unit strain").fill("10")
+    page.get_by_label("Hot spot above, mmHg").fill("30")
+    page.get_by_role("button", name="Design the stocking").click()
+    page.wait_for_url("**/#/designs/*")
+    page.locator("#design-verdict").wait_for()
+    page.locator("#pressure-viewer canvas").wait_for(timeout=30_000)
+    expect(page.locator(".legend #pressure-ramp")).to_have_count(1, timeout=30_000)
+    page.wait_for_timeout(500)
+    assert canvas_has_a_picture(page, "#pressure-viewer")
+    hot = page.locator("#hot-spots")
+    assert hot.locator("tbody tr").count() >= 1  # 30 mmHg: the tibial crest presses harder
+    assert page.locator("#knitting-spec tbody tr").count() > 40
+    page.screenshot(path=str(SHOTS / "design.png"), full_page=True)
+    with page.expect_download() as info:
+        page.get_by_role("button", name="Download CSV").click()
+    spec = Path(info.value.path()).read_text()
+    assert spec.startswith("height_mm,target_mmHg") and len(spec.splitlines()) > 40
+
+    page.get_by_role("link", name="Records").click()
+    page.locator("#records-table").wait_for()
+    page.screenshot(path=str(SHOTS / "records.png"))
+    page.once("dialog", lambda dialog: dialog.accept())
+    rows = page.locator("#records-table tbody tr").count()
+    page.locator("#records-table tbody tr").first.get_by_role("button", name="Delete").click()
+    expect(page.locator("#records-table tbody tr")).to_have_count(rows - 1, timeout=30_000)
+    assert page.console_errors == []
+
+
+def test_a_bad_file_shows_its_reason(served, page, tmp_path):
+    base, key = served
+    sign_in(page, base, key)
+    page.get_by_role("link", name="Upload").click()
+    bad = tmp_path / "box.stl"
+    import trimesh
+
+    ball = trimesh.creation.icosphere(subdivisions=4, radius=150.0)  # 2562 points, 300 mm across: not a leg
+    bad.write_bytes(ball.export(file_type="stl"))
+    page.set_input_files("#scan-file", str(bad))
+    page.get_by_role("button", name="Upload and fit").click()
+    alert = page.get_by_role("alert")
+    alert.wait_for(timeout=60_000)
+    text = alert.inner_text()
+    assert "reason: not_a_leg" in text and "times longer than it is wide" in text, text
+    # the browser logs the refused upload itself (a 422 response); nothing else
+    assert [e for e in page.console_errors if "status of 422" not in e] == []
