@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 
-.PHONY: run test install bench openapi clean
+.PHONY: run test install bench openapi clean web-vendor
 
 $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
@@ -28,6 +28,14 @@ bench: install
 
 openapi: install
 	$(BIN)/python -m app.openapi_export
+
+# three.js for the workbench, from the npm registry at the version app/web/package.json
+# pins, into app/web/vendor/three (committed: `make run` needs no Node)
+web-vendor:
+	cd app/web && npm pack three@$$(python3 -c 'import json; print(json.load(open("package.json"))["dependencies"]["three"])') --silent \
+	  && tar xzf three-*.tgz && cp package/build/three.module.js package/build/three.core.js package/LICENSE vendor/three/ \
+	  && sed "s#from 'three';#from './three.module.js';#" package/examples/jsm/controls/OrbitControls.js > vendor/three/OrbitControls.js \
+	  && rm -rf package three-*.tgz
 
 clean:
 	rm -rf $(VENV) var .pytest_cache
