@@ -16,8 +16,10 @@ Three steps, each a stated geometric rule (units mm; points (n, 3), faces (f, 3)
    of two feet side by side, lie in their own shadow; and
    (c) its normal lies within 45 degrees of the long axis of what stands more than the
    clearance above it (a floor is across a standing leg; the table under a lying body
-   runs along it).  Everything within the tolerance of the plane or beyond it is removed, and the search repeats (a
-   platform shows its top and its bottom face), at most :data:`MAX_FLOORS` times.
+   runs along it).  A platform's other face (a parallel plane within the clearance,
+   holding at least half as many points) casts no shadow in (b).  Everything within the
+   tolerance of the plane or beyond it is removed, and the search repeats (a platform
+   shows its top and its bottom face), at most :data:`MAX_FLOORS` times.
 2. **Spikes** (meshes, :func:`spike_faces`): needle triangles whose longest edge is over
    :data:`SPIKE_EDGE_FACTOR` times the median edge and over 20 mm, and whose area is
    under 5% of that edge squared, with a tip (a corner in at most two triangles).  Scanner streaks in point clouds are left to the robust
@@ -157,7 +159,18 @@ def find_floor(points: np.ndarray) -> Floor | None:
     # FLOOR_MARGIN_MM from the shadow (the projection on the plane) of everything above
     # it.  The flat soles of two feet side by side lie under their own feet, in the
     # shadow: they are skin, not a floor.
-    shadow = (sample[signed >= FLOOR_TOLERANCE_MM] - centre) @ in_plane.T
+    # a platform's other face - parallel, within the clearance, about as large - does not
+    # stand on this one: when the plane is a platform's bottom face, its top face would
+    # otherwise cast a shadow over all of it
+    above = signed >= FLOOR_TOLERANCE_MM
+    near = signed[above & (signed <= FLOOR_CLEARANCE_MM)]
+    if len(near):
+        bins = np.bincount(np.floor(near).astype(np.int64))
+        peak = float(np.argmax(np.convolve(bins, np.ones(int(2 * FLOOR_TOLERANCE_MM)), mode="same"))) + 0.5
+        twin = np.abs(signed - peak) < FLOOR_TOLERANCE_MM
+        if twin.sum() >= 0.5 * on_plane.sum():
+            above &= ~twin
+    shadow = (sample[above] - centre) @ in_plane.T
     gap, _ = cKDTree(shadow).query(flat, distance_upper_bound=FLOOR_MARGIN_MM)
     outside = float(np.mean(~np.isfinite(gap)))
     if outside < FLOOR_OUTSIDE_FRACTION:
