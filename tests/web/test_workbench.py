@@ -179,3 +179,30 @@ def test_a_bad_file_shows_its_reason(served, page, tmp_path):
     assert "reason: not_a_leg" in text and "times longer than it is wide" in text, text
     # the browser logs the refused upload itself (a 422 response); nothing else
     assert [e for e in page.console_errors if "status of 422" not in e] == []
+
+
+def test_on_a_tablet_the_screens_fit_and_the_keyboard_reaches_the_controls(served, browser):
+    """820 x 1180 (a tablet held upright): no sideways scrolling; Tab moves through
+    labelled controls to the sign-in button."""
+    base, key = served
+    context = browser.new_context(viewport={"width": 820, "height": 1180}, has_touch=True)
+    page = context.new_page()
+    try:
+        page.goto(f"{base}/")
+        page.get_by_label("API key of your clinic").wait_for()
+        assert page.evaluate("document.activeElement.id") == "api-key"  # the sign-in screen focuses its field
+        page.keyboard.type(key)
+        page.keyboard.press("Tab")
+        assert page.evaluate("document.activeElement.textContent") == "Sign in"
+        page.keyboard.press("Enter")
+        page.wait_for_url("**/#/records")
+        for route in ("#/records", "#/upload"):
+            page.goto(f"{base}/{route}")
+            page.locator("main h1").wait_for()
+            assert page.evaluate("document.documentElement.scrollWidth") <= 820
+            unlabelled = page.evaluate("""() => [...document.querySelectorAll('main input, main select, main textarea')]
+                .filter((el) => el.type !== 'hidden' && !el.labels?.length && !el.getAttribute('aria-label')).map((el) => el.id)""")
+            assert unlabelled == []
+        page.screenshot(path=str(SHOTS / "tablet-upload.png"))
+    finally:
+        context.close()
