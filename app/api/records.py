@@ -52,19 +52,31 @@ def record_summary(record) -> dict:
     }
 
 
+DAY_PATTERN = r"^[0-9]{4}-[0-9]{2}-[0-9]{2}$"
+
+
+def _day(value: str, name: str) -> date:
+    try:
+        return date.fromisoformat(value)
+    except ValueError as exc:
+        raise Unprocessable(f"{name} must be a calendar day YYYY-MM-DD, not {value!r}", code="invalid_request") from exc
+
+
 @router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination), by side and date",
-            responses=problems(s400="invalid_cursor", s422="invalid_request (until before since)"))
+            responses=problems(s400="invalid_cursor", s422="invalid_request (not a calendar day, or until before since)"))
 def list_records(
     limit: int = Query(50, ge=1, le=500),
     cursor: str | None = Query(None, pattern=r"^[A-Za-z0-9_=-]{1,200}$", description="next_cursor of the previous page"),
     side: Literal["left", "right", "unknown"] | None = Query(None, description="only records of this side"),
-    since: date | None = Query(None, description="only records created on or after this day (UTC)"),
-    until: date | None = Query(None, description="only records created before the end of this day (UTC)"),
+    since: str | None = Query(None, pattern=DAY_PATTERN, description="only records created on or after this day "
+                              "(UTC), YYYY-MM-DD"),
+    until: str | None = Query(None, pattern=DAY_PATTERN, description="only records created before the end of this "
+                              "day (UTC), YYYY-MM-DD"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
-    start = datetime.combine(since, time.min, tzinfo=timezone.utc) if since else None
-    end = datetime.combine(until + timedelta(days=1), time.min, tzinfo=timezone.utc) if until else None
+    start = datetime.combine(_day(since, "since"), time.min, tzinfo=timezone.utc) if since else None
+    end = datetime.combine(_day(until, "until") + timedelta(days=1), time.min, tzinfo=timezone.utc) if until else None
     rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor, side, start, end)
     return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
 

@@ -35,7 +35,11 @@ EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_EXAMPLES", "20"))
 #: (an empty body: Schemathesis does not apply minLength to binary strings).  A page
 #: cursor is opaque: only the ones the service issued are valid (400 invalid_cursor).
 SEMANTIC_STATUSES = {"POST /api/v1/scans": ("400", "415", "422"), "POST /api/v1/records": ("422",),
-                     "POST /api/v1/records/{record_id}/designs": ("422",), "GET /api/v1/records": ("400",)}
+                     "POST /api/v1/records/{record_id}/designs": ("422",), "GET /api/v1/records": ("400", "422"),
+                     # duplicate ids, records that cannot be refitted, a grid out of bounds
+                     "POST /api/v1/populations": ("422",),
+                     # two different legs, calves that share too little once aligned
+                     "GET /api/v1/records/{record_a}/compare/{record_b}": ("422",)}
 CONFIG = "\n".join(
     f'[[operations]]\ninclude-name = "{name}"\n[operations.checks.positive_data_acceptance]\n'
     f'expected-statuses = {["2xx", "401", "403", "404", "409", "429", *statuses]!r}\n'.replace("'", '"')
