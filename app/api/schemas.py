@@ -134,6 +134,8 @@ class MeasurementsOut(BaseModel):
     landmarks: dict[str, LandmarkGirth]
     heights: list[GirthOut]
     lengths_mm: dict[str, float] = Field(description="height differences along the calf axis between landmarks")
+    above_floor_mm: dict[str, float] | None = Field(
+        None, description="landmark heights above the sole (the floor of a standing person), when the foot is in the scan")
     warnings: list[str] = Field(default_factory=list, description="the record's warnings about its scan")
 
 

@@ -10,7 +10,9 @@ JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")
                weights [nu][nv], periodic_u}
     frame     4x4 matrix taking calf-frame mm to the scan's own coordinates and units
               (so it includes the uniform scale 1/mm_per_unit)
-    scan      {units, format, n_points, anterior_cue}
+    scan      {units, format, n_points, anterior_cue, sole_mm}: sole_mm, when the foot is
+              in the scan, is the calf-frame z of its lowest point (the floor under a
+              standing person; heights above the floor are height_mm - sole_mm)
     landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge}}
               (calf-frame z; B = 0).  circumference_mm is the perimeter of the section
               (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
@@ -149,6 +151,7 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
             "format": scan_format,
             "n_points": result.n_scan_points,
             "anterior_cue": result.frame.anterior_cue,
+            **({"sole_mm": result.sole_mm} if result.sole_mm is not None else {}),
         },
     )
 

@@ -125,10 +125,15 @@ class RecordService:
             lengths[f"{a}-{b}"] = parsed.landmarks[b]["height_mm"] - parsed.landmarks[a]["height_mm"]
         if "B" in parsed.landmarks and "D" in parsed.landmarks:
             lengths["B-D"] = parsed.landmarks["D"]["height_mm"] - parsed.landmarks["B"]["height_mm"]
+        sole = (parsed.scan or {}).get("sole_mm")
+        above_floor = None
+        if isinstance(sole, (int, float)) and np.isfinite(sole):
+            above_floor = {name: parsed.landmarks[name]["height_mm"] - float(sole) for name in names}
         return {
             "record_id": record.id,
             "units": "mm",
             "height_range_mm": [z0, z1],
+            "above_floor_mm": above_floor,
             "landmarks": landmarks,
             "heights": [
                 {"height_mm": g.height_mm, "circumference_mm": g.circumference_mm, "tape_circumference_mm": g.tape_mm}

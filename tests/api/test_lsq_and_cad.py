@@ -178,3 +178,10 @@ def test_scan_points_lie_on_the_surface_and_records_filter_by_side_and_date(clie
     assert client.get("/api/v1/records", params={"side": "left", "since": "2000-01-01"}).status_code == 200
     assert client.get("/api/v1/records", params={"until": "2000-01-01"}).json()["items"] == []
     assert client.get("/api/v1/records", params={"since": "2030-01-02", "until": "2030-01-01"}).status_code == 422
+
+
+def test_measurements_give_heights_above_the_floor_when_the_foot_is_in_the_scan(client, lsq_record):
+    body = client.get(f"/api/v1/records/{lsq_record['id']}/measurements").json()
+    floor = body["above_floor_mm"]
+    assert set(floor) == {"B", "B1", "C", "D"} and 40 < floor["B"] < 170
+    assert floor["D"] - floor["B"] == pytest.approx(body["lengths_mm"]["B-D"])

@@ -105,3 +105,29 @@ def test_a_noisy_point_cloud_of_the_leg_fits_close_to_the_mesh():
     assert result.landmarks.C.circumference_mm == pytest.approx(mesh_fit.landmarks.C.circumference_mm, abs=6)
     assert result.landmarks.B.circumference_mm == pytest.approx(mesh_fit.landmarks.B.circumference_mm, abs=6)
     assert result.landmarks.D.height_mm == pytest.approx(mesh_fit.landmarks.D.height_mm, abs=15)
+
+
+@pytest.mark.parametrize("file,side", REAL_LEGS)
+def test_the_sole_is_found_when_the_foot_is_in_the_scan(file, side):
+    """Every real leg has its foot: the heel's lowest point lies 40-170 mm below the
+    ankle minimum B (the hosiery charts' B height above the floor is 8-15 cm), also on
+    the lying bodies whose toes point further down."""
+    _, result = fitted(file, side)
+    assert result.frame.anterior_cue == "foot" and result.sole_mm is not None
+    assert 40.0 < -result.sole_mm < 170.0, result.sole_mm
+
+
+def test_no_sole_without_a_foot(tmp_path):
+    """The leg cut 30 mm below B, above the heel, as an ankle-to-thigh scan is: no foot,
+    no sole."""
+    mesh = trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+    _, result = fitted("bodyparts3d_right_leg.stl", None)
+    frame = result.frame
+    b_in_scan = frame.origin_mm / frame.mm_per_unit
+    up = frame.rotation[2]
+    above = (mesh.vertices - (b_in_scan - 30.0 * up / frame.mm_per_unit)) @ up > 0
+    cut = mesh.submesh([np.flatnonzero(above[mesh.faces].all(axis=1))], append=True)
+    path = tmp_path / "cut.stl"
+    cut.export(path)
+    cropped = fit_scan(load_scan(path))
+    assert cropped.sole_mm is None and cropped.frame.anterior_cue != "foot"

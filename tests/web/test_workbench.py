@@ -125,6 +125,7 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     sheet = page.locator("#measurement-sheet").inner_text()
     for name in ("B", "B1", "C", "D"):
         assert page.locator(f"#measurement-sheet tr[data-landmark={name}]").count() == 1
+    assert "B above the floor" in page.locator("#lengths").inner_text()  # the foot is in this scan
     girth_c = float(page.locator("#measurement-sheet tr[data-landmark=C] td").nth(1).inner_text().split()[0])
     assert 360 < girth_c < 400, sheet  # the BodyParts3D calf: 378 mm by tape
     page.get_by_label("Girth at a height above B").fill("100")

@@ -217,7 +217,9 @@ function measurementSheet(record, measure) {
       h('td', { class: 'num', text: mm(lm[n].height_mm) }),
       h('td', { class: 'num', text: `${mm(lm[n].tape_circumference_mm)} (${mm(lm[n].scan_tape_girth_mm)})` }),
       h('td', { class: 'num', text: `${mm(lm[n].circumference_mm)} (${mm(lm[n].scan_circumference_mm)})` })))));
-  const lengths = h('dl', { class: 'sheet' }, Object.entries(measure.lengths_mm).flatMap(([k, v]) => [h('dt', { text: k }), h('dd', { text: `${mm(v)} mm` })]));
+  const floor = measure.above_floor_mm ? Object.entries(measure.above_floor_mm).map(([k, v]) => [`${k} above the floor`, v]) : [];
+  const lengths = h('dl', { class: 'sheet', id: 'lengths' }, [...Object.entries(measure.lengths_mm), ...floor]
+    .flatMap(([k, v]) => [h('dt', { text: k }), h('dd', { text: `${mm(v)} mm` })]));
   const at = h('input', { id: 'height-input', type: 'number', step: '0.5', min: measure.height_range_mm[0], max: measure.height_range_mm[1] });
   const answer = h('p', { id: 'height-answer', 'aria-live': 'polite' });
   const ask = h('form', { onsubmit: async (e) => {
@@ -229,7 +231,7 @@ function measurementSheet(record, measure) {
     } catch (error) { answer.replaceChildren(problemBox(error)); }
   } }, h('label', { for: 'height-input', text: `Girth at a height above B (${mm(measure.height_range_mm[0])} to ${mm(measure.height_range_mm[1])} mm)` }),
   at, h('button', { class: 'secondary', type: 'submit', text: 'Measure' }), answer);
-  return h('div', { class: 'card' }, h('h2', { text: 'Measurement sheet' }), table, h('h2', { text: 'Lengths along the leg' }), lengths,
+  return h('div', { class: 'card' }, h('h2', { text: 'Measurement sheet' }), table, h('h2', { text: measure.above_floor_mm ? 'Lengths along the leg and from the floor' : 'Lengths along the leg' }), lengths,
     record.fit ? h('p', { class: 'muted', text: `Fit: ${record.fit.mode ?? 'paper'}, E ${(100 * (record.fit.error_index_exact ?? 0)).toFixed(2)}%, max error ${mm(record.fit.max_error_mm, 2)} mm` }) : null,
     ask);
 }
