@@ -207,3 +207,44 @@ def test_on_a_tablet_the_screens_fit_and_the_keyboard_reaches_the_controls(serve
         page.screenshot(path=str(SHOTS / "tablet-upload.png"))
     finally:
         context.close()
+
+
+def test_two_designs_side_by_side_and_two_records_compared(served, page):
+    """Two designs of one record (classes II and I) side by side; the same leg uploaded
+    twice (paper and lsq) compared: the volume change and the difference map."""
+    import httpx
+
+    base, key = served
+    headers = {"X-API-Key": key}
+    data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
+    records = []
+    for params in ({}, {"mode": "lsq"}):
+        job = httpx.post(f"{base}/api/v1/scans", content=data, params=params, timeout=60,
+                         headers={**headers, "Content-Type": "model/stl"}).json()
+        for _ in range(240):
+            job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
+            if job["status"] in ("succeeded", "failed"):
+                break
+            time.sleep(0.5)
+        assert job["status"] == "succeeded", job
+        records.append(job["record_id"])
+    for cls in ("II", "I"):
+        response = httpx.post(f"{base}/api/v1/records/{records[0]}/designs", headers=headers, timeout=60,
+                              json={"compression_class": cls, "fabric": {"stiffness_n_per_cm": 10}})
+        assert response.status_code == 201, response.text
+    sign_in(page, base, key)
+    page.goto(f"{base}/#/records/{records[0]}")
+    page.get_by_role("link", name="Compare the last two designs").click()
+    expect(page.locator("svg.chart")).to_have_count(2, timeout=30_000)
+    text = page.locator("main").inner_text()
+    assert "class II" in text and "class I " in text
+    page.screenshot(path=str(SHOTS / "two-designs.png"), full_page=True)
+    page.goto(f"{base}/#/records/{records[0]}")
+    page.get_by_label("Another record of this leg").select_option(records[1])
+    page.get_by_role("button", name="Compare").click()
+    page.locator("#volume-change").wait_for(timeout=30_000)
+    assert "ml" in page.locator("#volume-change").inner_text()
+    expect(page.locator(".legend #diff-ramp")).to_have_count(1, timeout=30_000)
+    assert canvas_has_a_picture(page, "#difference-viewer")
+    page.screenshot(path=str(SHOTS / "compare.png"))
+    assert page.console_errors == []
