@@ -15,7 +15,8 @@ span - in u over the u domain, in v over the part of each span inside the band. 
 a span the integrand of a polynomial surface is a polynomial of degree <= 8 in u and
 in v (x: 3, N: 2 + 3), which :data:`GAUSS_POINTS` = 8 nodes integrate exactly; only the
 curved band ends (planes that cut the surface obliquely) and rational weights make the
-quadrature approximate, and it converges to ~1e-10 relative for a calf.
+quadrature approximate (tests: an exact rational cylinder and cone frustum to 1e-4, and
+a real calf's volume additive over a split to 1e-9).
 
 Units: mm in, mm^3 out (1 ml = 1000 mm^3).
 """

@@ -19,7 +19,7 @@ from app.services.records import RecordService, _parse
 
 #: the colour map of the difference map runs from -MAP_RANGE_MM (blue, the leg has
 #: shrunk) through white to +MAP_RANGE_MM (red, swollen) unless a larger difference
-#: needs more; 5 mm is about 1 cm of girth, a refit in a compression clinic
+#: needs more; 5 mm of radius is about 3 cm of girth, well past a refit
 MAP_RANGE_MM = 5.0
 COLORMAP = "coolwarm"
 
