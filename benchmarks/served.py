@@ -8,6 +8,7 @@ process runs, and a service that logs a line per request would block once the pi
 
 from __future__ import annotations
 
+import contextlib
 import os
 import socket
 import subprocess
@@ -71,3 +72,22 @@ def stop(*processes: subprocess.Popen) -> None:
         log = getattr(process, "log", None)
         if log is not None:
             log.close()
+
+
+@contextlib.contextmanager
+def served_with_key(data_dir: Path, tenant: str, scopes: str = "admin"):
+    """A ``calf-nurbs serve`` on a free port with keys required, on ``data_dir``, and a
+    new key of ``tenant``: yields (base URL, key); stopped on exit."""
+    env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "1", "CALF_AUTH": "required",
+           "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
+    created = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", tenant, "--scopes", scopes],
+                             env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    key = created.stdout.strip().splitlines()[-1]
+    port = free_port()
+    server = start(["serve", "--port", str(port)], env)
+    base = f"http://127.0.0.1:{port}"
+    try:
+        wait_ready(base, server)
+        yield base, key
+    finally:
+        stop(server)

@@ -12,7 +12,6 @@ the 404s of random ids.
 from __future__ import annotations
 
 import os
-import subprocess
 from pathlib import Path
 
 import httpx
@@ -22,7 +21,8 @@ schemathesis = pytest.importorskip("schemathesis", reason="schemathesis is a tes
 from hypothesis import HealthCheck, settings  # noqa: E402
 
 from app.services.uploads import MEDIA_TYPES  # noqa: E402
-from tests.api.test_processes import BIN, fit_one, free_port, start, stop, wait_ready  # noqa: E402
+from benchmarks.served import served_with_key  # noqa: E402
+from tests.api.test_processes import fit_one  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_EXAMPLES", "20"))
@@ -52,17 +52,8 @@ schema = schemathesis.openapi.from_path(ROOT / "openapi" / "openapi.json", confi
 @pytest.fixture(scope="module")
 def deployed(tmp_path_factory):
     """(base URL, auth headers, real ids) of a served instance with one fitted record."""
-    data_dir = tmp_path_factory.mktemp("schemathesis") / "var"
-    env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "1", "CALF_AUTH": "required",
-           "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
-    created = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", "fuzz", "--scopes", "admin"],
-                             env={**os.environ, **env}, capture_output=True, text=True, check=True)
-    auth = {"Authorization": f"Bearer {created.stdout.strip().splitlines()[-1]}"}
-    port = free_port()
-    server = start(["serve", "--port", str(port)], env)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        wait_ready(base, server)
+    with served_with_key(tmp_path_factory.mktemp("schemathesis") / "var", "fuzz") as (base, key):
+        auth = {"Authorization": f"Bearer {key}"}
         job = fit_one(base, auth)
         assert job["status"] == "succeeded", job
         design = httpx.post(f"{base}/api/v1/records/{job['record_id']}/designs", headers=auth, timeout=60,
@@ -70,8 +61,6 @@ def deployed(tmp_path_factory):
         assert design.status_code == 201, design.text
         ids = {"record_id": job["record_id"], "job_id": job["id"], "design_id": design.json()["id"]}
         yield base, auth, ids
-    finally:
-        stop(server)
 
 
 @schema.parametrize()

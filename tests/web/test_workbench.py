@@ -10,17 +10,15 @@ from __future__ import annotations
 
 import os
 import shutil
-import subprocess
 import time
 from pathlib import Path
 
 import pytest
 
-from benchmarks.served import free_port, start, stop, wait_ready
+from benchmarks.served import served_with_key
 from tests.conftest import REAL
 
 ROOT = Path(__file__).resolve().parents[2]
-BIN = ROOT / ".venv" / "bin"
 CHROMIUM = os.environ.get("CALF_CHROMIUM", "/usr/bin/chromium")
 SHOTS = ROOT / "docs" / "screenshots"
 
@@ -32,20 +30,8 @@ if not (Path(CHROMIUM).exists() or shutil.which(CHROMIUM)):
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    data_dir = tmp_path_factory.mktemp("workbench") / "var"
-    env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "1", "CALF_AUTH": "required",
-           "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
-    created = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", "clinic", "--scopes", "admin"],
-                             env={**os.environ, **env}, capture_output=True, text=True, check=True)
-    key = created.stdout.strip().splitlines()[-1]
-    port = free_port()
-    server = start(["serve", "--port", str(port)], env)
-    base = f"http://127.0.0.1:{port}"
-    try:
-        wait_ready(base, server)
+    with served_with_key(tmp_path_factory.mktemp("workbench") / "var", "clinic") as (base, key):
         yield base, key
-    finally:
-        stop(server)
 
 
 @pytest.fixture(scope="module")
