@@ -2,7 +2,8 @@
 only library, three.js, is vendored under app/web/vendor, so nothing comes from a CDN:
 clinics run the service on closed networks and the data is health data).
 
-Every response of the service carries a strict Content-Security-Policy: scripts,
+Every response of the service (but the interactive API docs) carries a strict
+Content-Security-Policy: scripts,
 styles, images and connections from this origin only (no inline script, no eval, no
 third party), no plugins, no framing; WebGL needs nothing more.
 """
@@ -28,6 +29,11 @@ SECURITY_HEADERS = [
     (b"x-frame-options", b"DENY"),
 ]
 
+#: FastAPI's interactive API docs load Swagger UI / ReDoc from their CDN with an inline
+#: script: they keep the framework's own headers (they are not the workbench, and on a
+#: closed network they do not load at all; openapi/openapi.json is the contract)
+INTERACTIVE_DOCS = ("/docs", "/redoc")
+
 router = APIRouter(include_in_schema=False)
 
 
@@ -48,7 +54,7 @@ class SecurityHeadersMiddleware:
         self.app = app
 
     async def __call__(self, scope, receive, send):
-        if scope["type"] != "http":
+        if scope["type"] != "http" or scope.get("path", "").startswith(INTERACTIVE_DOCS):
             return await self.app(scope, receive, send)
 
         async def send_with_headers(message):

@@ -185,3 +185,12 @@ def test_measurements_give_heights_above_the_floor_when_the_foot_is_in_the_scan(
     floor = body["above_floor_mm"]
     assert set(floor) == {"B", "B1", "C", "D"} and 40 < floor["B"] < 170
     assert floor["D"] - floor["B"] == pytest.approx(body["lengths_mm"]["B-D"])
+
+
+def test_every_response_but_the_interactive_docs_carries_a_strict_csp(client):
+    for path in ("/", "/web/js/main.js", "/api/v1/records", "/livez"):
+        csp = client.get(path).headers["content-security-policy"]
+        assert "script-src 'self'" in csp and "unsafe-inline" not in csp and "frame-ancestors 'none'" in csp
+    assert "content-security-policy" not in client.get("/docs").headers
+    index = client.get("/")
+    assert index.headers["content-type"].startswith("text/html") and 'src="/web/js/main.js"' in index.text
