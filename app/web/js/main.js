@@ -252,6 +252,8 @@ async function draw3d(record, box, toggles, legend) {
   toggle('show-surface', 'Surface', true, (on) => viewer.visible('surface', on));
   let scan;
   try {
+    // an imported or population record has no scan: do not ask (a 404 is a console error)
+    if (!record.scan_id) throw new Error('no scan');
     scan = await api(`/records/${record.id}/scan-points?limit=20000`);
   } catch (error) {
     toggles.append(h('span', { class: 'muted', text: 'No stored scan for this record.' }));
