@@ -37,10 +37,6 @@ calf takes part:
    quadratic model of the squared distance.  Measured on the bodyparts3d leg at 7 x 15
    after two rounds: exact E 0.72% with plain correction, 0.62% with SDM and a
    tangential weight of 0.1, 0.47% with 0.01 (the paper mode: 0.99%).
-   The end rings are held at the planes z = B and z = D (a stiff penalty on the z of
-   the first and last control rows, which a clamped surface's borders are): B's and D's
-   sections are planes, and the weak tangential term would otherwise let the borders
-   slide along the leg.
    A small second-difference (thin-plate-like) penalty on the net, with a weight fixed
    relative to the data term's mean diagonal (:data:`SMOOTHING`), holds the surface
    where a hole leaves no points; where the points are dense it is negligible.
@@ -230,8 +226,7 @@ def solve_grid(data: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
 
 def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray, normals: np.ndarray,
                                grid: LsqGrid, smoothing: float = SMOOTHING, weights: np.ndarray | None = None,
-                               tangential: float | None = None,
-                               end_heights: tuple[float, float] | None = None) -> np.ndarray:
+                               tangential: float | None = None) -> np.ndarray:
     """One step of squared-distance minimization (SDM; Wang, Pottmann & Liu, ACM TOG
     2006): the net (around, along, 3) minimizing, with the foot parameters (u, v) fixed,
 
@@ -266,19 +261,6 @@ def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray,
         scale = smoothing * float(normal.diagonal().mean())
         pp = penalty.T @ penalty
         normal = (normal + scale * bmat([[pp, None, None], [None, pp, None], [None, None, pp]])).tocsc()
-    if end_heights is not None:
-        # the end rings stay the planes z = B and z = D: a clamped surface's border is
-        # its first (last) control row, whose z is held by a stiff penalty (the SDM's
-        # weak tangential term would otherwise let the border slide along the leg)
-        stiff = 1e6 * float(normal.diagonal().mean())
-        rows = np.arange(grid.around) * grid.along
-        ends = np.concatenate([2 * n + rows, 2 * n + rows + grid.along - 1])
-        hold = np.zeros(3 * n)
-        hold[ends] = stiff
-        normal = normal + diags(hold)
-        rhs = rhs.copy()
-        rhs[2 * n + rows] += stiff * end_heights[0]
-        rhs[2 * n + rows + grid.along - 1] += stiff * end_heights[1]
     normal = normal + diags(np.full(normal.shape[0], 1e-12 * float(normal.diagonal().max())))
     try:
         solution = splu(normal.tocsc()).solve(rhs)
@@ -354,8 +336,7 @@ def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_poi
         _, su, sv, _, _, _ = evaluate_derivatives(surface, pu, pv)
         normals = np.cross(su, sv)
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-        net = solve_net_squared_distance(sample, pu, pv, normals, grid, smoothing, sample_weight,
-                                         end_heights=(float(layer_heights[0]), float(layer_heights[-1])))
+        net = solve_net_squared_distance(sample, pu, pv, normals, grid, smoothing, sample_weight)
         surface = surface_from_net(net)
     if corrections and len(sample):
         rms.append(float(np.sqrt(np.mean(foot_points(surface, sample, length)[0] ** 2))))

@@ -41,9 +41,8 @@ def test_parameter_correction_brings_the_surface_to_unparametrised_points():
     """The same surface, its points handed over without parameters (as a scan is) and
     the first fit made from the polar sections of its mesh (v from the heights, which
     is not the surface's own v): every correction round brings the surface closer to
-    the points; twelve rounds lower the first fit's RMS distance by over 40% (the
-    parameters converge linearly, the end rings held at their planes: with the
-    parameters given, the solver is exact, test above)."""
+    the points; twelve rounds halve the first fit's RMS distance (the parameters
+    converge linearly: with them given, the solver is exact, test above)."""
     grid = lsq.LsqGrid(7, 15)
     truth = lsq.surface_from_net(_leg_like_net(grid))
     rng = np.random.default_rng(5)
@@ -58,7 +57,7 @@ def test_parameter_correction_brings_the_surface_to_unparametrised_points():
     fit = lsq.fit_lsq_surface(sections, np.linspace(0.0, 300.0, 7), points, grid, corrections=12, smoothing=0.0)
     rms = np.array(fit.rms_mm)
     assert (np.diff(rms) < 0).all(), rms
-    assert rms[-1] < 0.6 * rms[0] and rms[-1] < 0.05, rms
+    assert rms[-1] < 0.5 * rms[0] and rms[-1] < 0.05, rms
 
 
 def test_grid_option_is_parsed_and_bad_grids_are_refused_in_words():
@@ -86,9 +85,6 @@ def test_lsq_on_a_real_leg_beats_the_paper_at_the_same_size_and_keeps_the_anatom
     lm = result.landmarks
     for ring, name in zip(np.transpose(rings, (1, 0, 2)), ("B", "B1", "C", "D")):
         assert abs(ring[:, 2].mean() - getattr(lm, name).height_mm) < 3.0, name
-    # the end rings are the planes z = B and z = D themselves
-    assert np.abs(rings[:, 0, 2] - lm.B.height_mm).max() < 1e-6
-    assert np.abs(rings[:, 3, 2] - lm.D.height_mm).max() < 1e-6
     front = evaluate_grid(result.surface, np.array([0.0, 0.5]), np.array([2 / 3]))[:, 0]
     centre = rings[:, 2].mean(axis=0)
     assert front[0, 1] > centre[1] + 30.0 and front[1, 1] < centre[1] - 30.0  # u=0 front, u=0.5 back
