@@ -59,18 +59,30 @@ def landmark_height(landmarks: dict, name: str) -> float:
     return float(landmarks[name]["height_mm"])
 
 
+def alignment_shift(landmarks_a: dict, landmarks_b: dict, align: str) -> float:
+    """b's calf-frame z minus a's at the landmark ``align`` (mm): b's z = a's z + shift."""
+    return landmark_height(landmarks_b, align) - landmark_height(landmarks_a, align)
+
+
+def shared_heights(a: NurbsSurface, b: NurbsSurface, shift_mm: float) -> tuple[float, float]:
+    """(low, high) of a's z that both surfaces cover once b is shifted by ``shift_mm``;
+    ValueError when that is less than 20 mm of leg."""
+    a0, a1 = cut_height_range(a)
+    b0, b1 = cut_height_range(b)
+    lo, hi = max(a0, b0 - shift_mm), min(a1, b1 - shift_mm)
+    if hi - lo < 20.0:
+        raise ValueError("the two calves share less than 20 mm of leg once aligned")
+    return lo, hi
+
+
 def compare_surfaces(a: NurbsSurface, landmarks_a: dict, b: NurbsSurface, landmarks_b: dict,
                      align: str = "B", step_mm: float = STEP_MM) -> Comparison:
     """The comparison of record b against record a (module docstring).  Landmark dicts:
     name -> {"height_mm": ...}.  Raises ValueError when the aligned surfaces share less
     than 20 mm of leg."""
     base_a, base_b = landmark_height(landmarks_a, align), landmark_height(landmarks_b, align)
-    shift = base_b - base_a
-    a0, a1 = cut_height_range(a)
-    b0, b1 = cut_height_range(b)
-    lo, hi = max(a0, b0 - shift), min(a1, b1 - shift)  # a's z, covered by both
-    if hi - lo < 20.0:
-        raise ValueError("the two calves share less than 20 mm of leg once aligned")
+    shift = alignment_shift(landmarks_a, landmarks_b, align)
+    lo, hi = shared_heights(a, b, shift)
     first = np.ceil((lo + 1e-6 - base_a) / step_mm) * step_mm
     heights = np.arange(first, hi - base_a - 1e-6 + 1e-9, step_mm)  # above the landmark
     girth_a = np.array([g.tape_mm for g in girths(a, heights + base_a)])

@@ -131,12 +131,14 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: dict | No
                       n_scan_points=len(scan.points_mm), d_at_window_edge=where.d_at_window_edge,
                       edges=(where.b_at_scan_edge, where.d_at_scan_edge), placement=where)
     result.timings["calf_frame"] = placed - started
-    heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]  # behind and below B's centroid
-    if where.anterior_cue == "foot" and heel.size:
+    if where.anterior_cue == "foot":
         # the foot is in the scan (it told front from back): the lowest point of the heel
-        # is the sole, the floor a standing person's heights are measured from (ISO
-        # 8559-1); the heel, not the whole foot: a lying body's pointed toes reach lower
-        result = dataclasses.replace(result, sole_mm=float(heel.min()))
+        # (behind and below B's centroid) is the sole, the floor a standing person's
+        # heights are measured from (ISO 8559-1); the heel, not the whole foot: a lying
+        # body's pointed toes reach lower
+        heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]
+        if heel.size:
+            result = dataclasses.replace(result, sole_mm=float(heel.min()))
     return result
 
 

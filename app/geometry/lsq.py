@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.interpolate import BSpline, PchipInterpolator
-from scipy.sparse import csr_matrix, diags, vstack
+from scipy.sparse import block_diag, bmat, csr_matrix, diags, vstack
 from scipy.sparse.linalg import splu
 
 from app.geometry.errors import FailureReason, FitFailure
@@ -169,31 +169,19 @@ def second_differences(grid: LsqGrid) -> csr_matrix:
     return vstack(blocks).tocsr()
 
 
-def solve_net(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
-              smoothing: float = SMOOTHING, weights: np.ndarray | None = None) -> np.ndarray:
-    """Least-squares control net (around, along, 3) of the points (N, 3) mm at parameters
-    (u, v) (N,) each, optionally weighted (N,), with the second-difference penalty
-    weighted ``smoothing`` x the mean diagonal of A^T W A (0: plain least squares).  Sparse normal equations, one LU
-    factorization for x, y and z.  Raises FitFailure DEGENERATE_SURFACE when the points
-    do not determine the net (e.g. a grid far finer than the data with no smoothing)."""
-    a = collocation(u, v, grid)
-    weighted = a if weights is None else diags(weights) @ a
-    normal = (weighted.T @ a).tocsc()
-    if smoothing > 0:
-        penalty = second_differences(grid)
-        scale = smoothing * float(normal.diagonal().mean())
-        normal = (normal + scale * (penalty.T @ penalty)).tocsc()
-    # a tiny ridge keeps an unconstrained control point (no data and no penalty) finite
+def _solve_normal_equations(normal, rhs: np.ndarray) -> np.ndarray:
+    """Solve sparse normal equations with a tiny ridge (a control point with no data and
+    no penalty stays finite) by one LU; FitFailure DEGENERATE_SURFACE when the points do
+    not determine the net."""
     normal = normal + diags(np.full(normal.shape[0], 1e-12 * float(normal.diagonal().max())))
     try:
-        lu = splu(normal.tocsc())
-        net = lu.solve(np.asarray(weighted.T @ points))
+        solution = splu(normal.tocsc()).solve(rhs)
     except RuntimeError as exc:
         raise FitFailure(FailureReason.DEGENERATE_SURFACE,
                          "the least-squares surface is not determined by the scan points") from exc
-    if not np.isfinite(net).all():
+    if not np.isfinite(solution).all():
         raise FitFailure(FailureReason.DEGENERATE_SURFACE, "the least-squares surface is not determined by the scan points")
-    return net.reshape(grid.around, grid.along, 3)
+    return solution
 
 
 def _dense_basis(indices: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
@@ -238,6 +226,9 @@ def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray,
     (tangent-distance minimization is quadratic for small residuals); the small
     tangential term keeps the system well posed along the surface, where distance
     does not change.  x, y, z are coupled: 3 x unknowns, sparse, one LU.
+    ``tangential=1`` is plain least squares on the points (the metric is the identity,
+    the normals do not matter); ``smoothing`` weights the second-difference penalty
+    relative to the mean diagonal of the data term (0: none).
     """
     tangential = TANGENTIAL if tangential is None else tangential
     a = collocation(u, v, grid)
@@ -248,27 +239,14 @@ def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray,
     # its distance is not along the normal, so it pulls by its whole offset (PDM)
     border = (v <= 0.0) | (v >= 1.0)
     metric[border] = np.eye(3)
-    blocks = [[None] * 3 for _ in range(3)]
-    for i in range(3):
-        for j in range(3):
-            blocks[i][j] = (diags(w * metric[:, i, j]) @ a).T @ a
-    from scipy.sparse import bmat
-
-    normal = bmat(blocks).tocsc()
+    normal = bmat([[(diags(w * metric[:, i, j]) @ a).T @ a for j in range(3)] for i in range(3)]).tocsc()
     rhs = np.concatenate([(a.T @ (w * np.einsum("kij,kj->ki", metric, points)[:, i])) for i in range(3)])
     if smoothing > 0:
         penalty = second_differences(grid)
         scale = smoothing * float(normal.diagonal().mean())
         pp = penalty.T @ penalty
-        normal = (normal + scale * bmat([[pp, None, None], [None, pp, None], [None, None, pp]])).tocsc()
-    normal = normal + diags(np.full(normal.shape[0], 1e-12 * float(normal.diagonal().max())))
-    try:
-        solution = splu(normal.tocsc()).solve(rhs)
-    except RuntimeError as exc:
-        raise FitFailure(FailureReason.DEGENERATE_SURFACE,
-                         "the least-squares surface is not determined by the scan points") from exc
-    if not np.isfinite(solution).all():
-        raise FitFailure(FailureReason.DEGENERATE_SURFACE, "the least-squares surface is not determined by the scan points")
+        normal = normal + scale * block_diag([pp, pp, pp])
+    solution = _solve_normal_equations(normal, rhs)
     return solution.reshape(3, n).T.reshape(grid.around, grid.along, 3)
 
 

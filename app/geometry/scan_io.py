@@ -193,6 +193,10 @@ _PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "us
                    "double": 8, "float64": 8}
 
 
+#: a line holding something other than white space (one C-level pass over a body)
+_DATA_LINE = re.compile(rb"^[ \t\r]*\S", re.MULTILINE)
+
+
 def check_ply_integrity(data: bytes) -> None:
     """Refuse a PLY that holds fewer elements than its header announces.
 
@@ -226,7 +230,7 @@ def check_ply_integrity(data: bytes) -> None:
                           for name, count, _, _ in elements)
     if fmt == "ascii":
         needed = sum(count for _, count, _, _ in elements)
-        present = sum(1 for line in body.splitlines() if line.strip())
+        present = len(_DATA_LINE.findall(body))
         unit = "lines"
     else:
         needed = sum(count * (fixed + listed) for _, count, fixed, listed in elements)

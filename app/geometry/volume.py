@@ -41,26 +41,30 @@ def _spans(knots: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.concatenate([[lo], inner, [hi]])
 
 
-def heights_v(surface: NurbsSurface, u: np.ndarray, height_mm: float) -> np.ndarray:
-    """v (n,) at which z(u, v) = height_mm, for each u (n,); NaN where z never reaches it."""
+def heights_v(surface: NurbsSurface, u: np.ndarray, heights_mm) -> np.ndarray:
+    """v (h, n) at which z(u, v) = each of heights_mm (h,), for each u (n,); NaN where
+    z never reaches it.  One bracketing grid for all the heights."""
+    heights = np.atleast_1d(np.asarray(heights_mm, dtype=np.float64))[:, None, None]  # (h, 1, 1)
     v0, v1 = surface.domain_v
     grid_v = np.linspace(v0, v1, _BRACKET_SAMPLES)
-    z = evaluate_grid(surface, u, grid_v)[..., 2]  # (n, samples)
-    tolerance = 1e-9 * max(1.0, abs(height_mm))  # a height at the surface's very end
-    above = z >= height_mm - tolerance
+    z = evaluate_grid(surface, u, grid_v)[..., 2][None]  # (1, n, samples)
+    tolerance = 1e-9 * np.maximum(1.0, np.abs(heights))  # a height at the surface's very end
+    above = z >= heights - tolerance
     # first sample at or above the height (z rises along v)
-    first = np.argmax(above, axis=1)
-    reached = above.any(axis=1) & (z[:, 0] <= height_mm + tolerance)
+    first = np.argmax(above, axis=2)  # (h, n)
+    reached = above.any(axis=2) & (z[..., 0] <= heights[..., 0] + tolerance[..., 0])
     lo = grid_v[np.maximum(first - 1, 0)]
     hi = grid_v[first]
     v = np.where(first == 0, v0, 0.5 * (lo + hi))
+    target = np.broadcast_to(heights[..., 0], v.shape)
+    uu = np.broadcast_to(u, v.shape)
     for _ in range(_NEWTON_STEPS):  # safeguarded Newton: stays in [lo, hi], bisects otherwise
-        s, _, sv, _, _, _ = evaluate_derivatives(surface, u, v)
-        f = s[:, 2] - height_mm
+        s, _, sv, _, _, _ = evaluate_derivatives(surface, uu.ravel(), v.ravel())
+        f = s[:, 2].reshape(v.shape) - target
         lo = np.where(f < 0, v, lo)
         hi = np.where(f >= 0, v, hi)
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = v - f / sv[:, 2]
+            step = v - f / sv[:, 2].reshape(v.shape)
         v = np.where((step > lo) & (step < hi) & np.isfinite(step), step, 0.5 * (lo + hi))
     return np.where(reached, v, np.nan)
 
@@ -86,7 +90,7 @@ def volume_between(surface: NurbsSurface, low_mm: float, high_mm: float) -> floa
     a, b = u_breaks[:-1, None], u_breaks[1:, None]
     u = (0.5 * (b - a) * nodes + 0.5 * (a + b)).ravel()  # (nu,)
     wu = (0.5 * (b - a) * weights).ravel()
-    v_low, v_high = heights_v(surface, u, low_mm), heights_v(surface, u, high_mm)
+    v_low, v_high = heights_v(surface, u, [low_mm, high_mm])
     if not (np.isfinite(v_low).all() and np.isfinite(v_high).all()):
         raise ValueError("the heights must lie within the surface's height range")
     v_breaks = _spans(surface.knots_v, *surface.domain_v)

@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 
 from app.errors import Unprocessable
-from app.geometry.compare import compare_surfaces, signed_differences
+from app.geometry.compare import alignment_shift, compare_surfaces, shared_heights, signed_differences
 from app.geometry.exchange import apply_frame
 from app.services.records import RecordService, _parse
 
@@ -71,8 +71,14 @@ class ComparisonService:
         """The signed difference map on record a's surface: GLB (scan coordinates of a,
         vertex colours, legend in the scene's extras) or CSV (calf frame of a, mm)."""
         _, ra, _, rb = self.pair(a_id, b_id)
-        comparison = self._comparison(ra, rb, align)
-        vertices, faces, signed = signed_differences(ra.surface, rb.surface, comparison.shift_mm)
+        try:  # the map needs only the alignment and the overlap, not the girths and volumes
+            shift = alignment_shift(ra.landmarks, rb.landmarks, align)
+            shared_heights(ra.surface, rb.surface, shift)
+        except KeyError as exc:
+            raise Unprocessable(f"a record has no landmark {align}", code="invalid_alignment") from exc
+        except ValueError as exc:
+            raise Unprocessable(str(exc), code="no_overlap") from exc
+        vertices, faces, signed = signed_differences(ra.surface, rb.surface, shift)
         base = float(ra.landmarks[align]["height_mm"])
         if file_format == "csv":
             out = io.StringIO()

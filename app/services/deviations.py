@@ -4,8 +4,8 @@ model departs from the scan (the workbench's error-colour map; any client may as
 The stored scan is read again, taken into the record's calf frame (the inverse of the
 record's ``frame``), kept between the surface's end rings and within
 :data:`NEAR_MM` of the surface (a body scan's other leg, a floor, stray points are not
-this calf), thinned by a fixed stride, and each point's exact distance to the surface
-is computed (Newton foot points, :func:`app.geometry.surface_error.foot_points`).
+this calf), thinned by a fixed stride (before and after), and each point's exact
+distance to the surface is computed (Newton foot points, :func:`app.geometry.surface_error.foot_points`).
 """
 
 from __future__ import annotations
@@ -47,6 +47,9 @@ class DeviationService:
         local = (in_units - frame[:3, 3]) @ np.linalg.inv(frame[:3, :3]).T  # calf frame, mm
         low, high = cut_height_range(parsed.surface)
         local = local[(local[:, 2] >= low) & (local[:, 2] <= high)]
+        # thinned before the distances are computed: twice the points asked for leaves
+        # room for those that are not this calf (dropped below)
+        local = local[:: max(int(np.ceil(len(local) / (2 * limit))), 1)]
         distance, _, _ = foot_points(parsed.surface, local, high - low) if len(local) else (np.zeros(0),) * 3
         near = distance <= NEAR_MM
         local, distance = local[near], distance[near]

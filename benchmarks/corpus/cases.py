@@ -13,6 +13,7 @@ in the scan, else the failure reason a correct service gives.
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -97,7 +98,9 @@ def corpus_specs(n: int, seed: int = 7) -> list[CaseSpec]:
 def _write(mesh: trimesh.Trimesh | None, cloud: np.ndarray | None, rng: np.random.Generator) -> tuple[bytes, str]:
     if cloud is not None:
         if rng.random() < 0.5:
-            return "\n".join(f"{x:.4f} {y:.4f} {z:.4f}" for x, y, z in cloud).encode(), "xyz"
+            text = io.StringIO()
+            np.savetxt(text, cloud, fmt="%.4f", delimiter=" ")
+            return text.getvalue().encode(), "xyz"
         return trimesh.PointCloud(cloud).export(file_type="ply"), "ply"
     fmt = str(rng.choice(["stl", "stl", "ply", "obj"]))
     data = mesh.export(file_type=fmt)
