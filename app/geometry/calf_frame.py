@@ -174,7 +174,7 @@ def _shin_side_coordinate(local: np.ndarray, shins: np.ndarray, apart: bool) -> 
     return (local[:, :2] - 0.5 * (c0 + c1)) @ ((c1 - c0) / gap)
 
 
-def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
+def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -> tuple[LegCut, LegCut] | None:
     """Two legs joined at the hips (feet to hips, shorter than a body), cut apart; None
     when the scan is not two legs.
 
@@ -182,6 +182,7 @@ def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
     the length from the feet end, two blobs of comparable size (two shins; a single
     leg, even bent at the knee, gives one blob per slab at its ends).  The shins are then
     separated by 2-means and every point goes to the nearer side of the mid-plane.
+    ``spacing_p95_mm``: the 95th percentile of the scan's point spacing, when known.
     """
     centre = points_mm.mean(axis=0)
     basis = perpendicular_basis(principal_axis(points_mm[:: max(len(points_mm) // 20000, 1)]))
@@ -198,7 +199,9 @@ def split_two_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut] | None:
     # (meshes are denser at the joints than along the shin)
     from app.geometry.cleanup import point_spacing
 
-    pixel = max(10.0, 2.0 * point_spacing(points_mm, 95.0))
+    if spacing_p95_mm is None:
+        spacing_p95_mm = point_spacing(points_mm, 95.0)
+    pixel = max(10.0, 2.0 * spacing_p95_mm)
     shares = []
     for sign in (1.0, -1.0):
         pairs = 0

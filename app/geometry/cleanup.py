@@ -75,14 +75,40 @@ class Floor:
 @dataclass(frozen=True)
 class CleanScan:
     """A scan after clean-up: ``points`` (n, 3) mm, ``faces`` (f, 3) or None, ``pieces``
-    (list of point-index arrays, largest first), what was removed (``floor``, counts)."""
+    (list of point-index arrays, largest first), what was removed (``floors``, the planes
+    in the order they were removed; counts).  A point cloud's ``voxel_mm`` (the voxel its
+    pieces were joined by) and ``spacing_p95_mm`` (95th percentile of its nearest-neighbour
+    distances); None for a mesh.  ``floors`` and ``voxel_mm`` repeat the clean-up exactly
+    (:func:`clean_scan`'s ``replay``) without searching again."""
 
     points: np.ndarray
     faces: np.ndarray | None
     pieces: list
-    floor: Floor | None
+    floors: tuple
     n_spike_faces: int
     n_stray_points: int
+    voxel_mm: float | None = None
+    spacing_p95_mm: float | None = None
+
+    @property
+    def floor(self) -> Floor | None:
+        """The first plane removed, with the points of all of them (a platform shows its
+        top and its bottom face); None when there was no floor."""
+        if not self.floors:
+            return None
+        first = self.floors[0]
+        return Floor(first.normal, first.point, sum(f.n_removed for f in self.floors))
+
+
+@dataclass(frozen=True)
+class CleanupReplay:
+    """What a clean-up found, to repeat it on the same scan: the floor planes
+    ((point (3,), normal (3,)) pairs, scan mm), a cloud's voxel size and point spacing
+    (mm, None for a mesh)."""
+
+    floors: tuple = ()
+    voxel_mm: float | None = None
+    spacing_p95_mm: float | None = None
 
 
 def _stride_sample(points: np.ndarray, count: int) -> np.ndarray:
@@ -193,13 +219,18 @@ def spike_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return needle & (degree[faces].min(axis=1) <= 2)
 
 
-def point_spacing(points: np.ndarray, percentile: float = 50.0) -> float:
-    """Nearest-neighbour distance (median, or another percentile) of a 5k-point stride
-    sample, mm."""
+def neighbour_distances(points: np.ndarray) -> np.ndarray:
+    """Nearest-neighbour distances (s,) of a 5k-point stride sample of points (n, 3), mm."""
     sample = _stride_sample(points, 5000)
     # an unbalanced, non-compacted tree builds twice as fast and queries as fast here
     distance, _ = cKDTree(points, balanced_tree=False, compact_nodes=False).query(sample, k=2)
-    return float(np.percentile(distance[:, 1], percentile))
+    return distance[:, 1]
+
+
+def point_spacing(points: np.ndarray, percentile: float = 50.0) -> float:
+    """Nearest-neighbour distance (median, or another percentile) of a 5k-point stride
+    sample, mm."""
+    return float(np.percentile(neighbour_distances(points), percentile))
 
 
 def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
@@ -227,17 +258,27 @@ def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
     return labels[inverse.reshape(-1)]
 
 
-def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
-    """Floor, spikes and stray pieces removed; the remaining pieces listed (docstring)."""
+def clean_scan(points: np.ndarray, faces: np.ndarray | None, replay: CleanupReplay | None = None) -> CleanScan:
+    """Floor, spikes and stray pieces removed; the remaining pieces listed (docstring).
+
+    ``replay``: what an earlier clean-up of the same scan found (its floor planes and
+    voxel size), applied as they are instead of being searched for; the result is the
+    same."""
     keep = np.ones(len(points), dtype=bool)
-    floor = None
-    for _ in range(MAX_FLOORS):
-        plane = find_floor(points[keep])
+    floors: list[Floor] = []
+    if replay is not None:
+        planes = [Floor(np.asarray(n, dtype=float), np.asarray(p, dtype=float), 0) for p, n in replay.floors]
+    else:
+        planes = None
+    for attempt in range(MAX_FLOORS if planes is None else len(planes)):
+        plane = find_floor(points[keep]) if planes is None else planes[attempt]
         if plane is None:
             break
-        keep &= (points - plane.point) @ plane.normal >= FLOOR_TOLERANCE_MM
-        floor = plane if floor is None else Floor(floor.normal, floor.point, floor.n_removed + plane.n_removed)
+        above = (points - plane.point) @ plane.normal >= FLOOR_TOLERANCE_MM
+        floors.append(Floor(plane.normal, plane.point, int((keep & ~above).sum())))
+        keep &= above
     n_spikes = 0
+    spacing_p95 = None
     if faces is not None:
         spikes = spike_faces(points, faces)
         n_spikes = int(spikes.sum())
@@ -255,7 +296,14 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
         graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])), shape=(len(index),) * 2)
         labels = connected_components(graph, directed=False)[1]
     else:
-        labels = voxel_pieces(kept, max(VOXEL_FACTOR * point_spacing(kept), MIN_VOXEL_MM))
+        if replay is not None and replay.voxel_mm is not None:
+            voxel_mm = float(replay.voxel_mm)
+            spacing_p95 = replay.spacing_p95_mm
+        else:
+            spacing = neighbour_distances(kept)
+            voxel_mm = max(VOXEL_FACTOR * float(np.median(spacing)), MIN_VOXEL_MM)
+            spacing_p95 = float(np.percentile(spacing, 95.0))
+        labels = voxel_pieces(kept, voxel_mm)
     sizes = np.bincount(labels)
     big = np.flatnonzero(sizes >= MIN_PIECE_FRACTION * len(kept))
     big = big[np.argsort(-sizes[big])]
@@ -273,4 +321,5 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None) -> CleanScan:
     rank[big] = np.arange(len(big))
     order = np.argsort(rank[labels[in_piece]], kind="stable")
     pieces = np.split(order, np.cumsum(sizes[big])[:-1])
-    return CleanScan(points[final], new_faces, pieces, floor, n_spikes, int((~in_piece).sum()))
+    return CleanScan(points[final], new_faces, pieces, tuple(floors), n_spikes, int((~in_piece).sum()),
+                     None if faces is not None else voxel_mm, spacing_p95)

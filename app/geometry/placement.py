@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.geometry import calf_frame as cf
-from app.geometry.cleanup import CleanScan, clean_scan
+from app.geometry.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.knee_bend import keep_index, shank_runs
 from app.geometry.landmarks import FAILURE_STAGE, FeatureHeights, find_feature_heights
@@ -111,6 +111,12 @@ class LegPlacement:
     warnings: tuple = ()
     #: a bent knee's cut: ((point (3,), normal (3,)), ...) in scan mm, keep (p - point) . normal <= 0
     half_spaces: tuple = ()
+    #: the clean-up's floor planes ((point (3,), normal (3,)), ...) in scan mm, in the order
+    #: removed, and a cloud's voxel size and point spacing (mm): the fit repeats the
+    #: clean-up from them
+    floors: tuple = ()
+    voxel_mm: float | None = None
+    spacing_p95_mm: float | None = None
 
     @property
     def frame(self) -> cf.CalfFrame:
@@ -125,6 +131,8 @@ class LegPlacement:
             "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
             "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
             "half_spaces": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.half_spaces],
+            "floors": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.floors],
+            "voxel_mm": self.voxel_mm, "spacing_p95_mm": self.spacing_p95_mm,
         }
 
     @classmethod
@@ -139,7 +147,18 @@ class LegPlacement:
             piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
             half_spaces=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float))
                               for p, n in data.get("half_spaces", ())),
+            floors=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float)) for p, n in data.get("floors", ())),
+            voxel_mm=None if data.get("voxel_mm") is None else float(data["voxel_mm"]),
+            spacing_p95_mm=None if data.get("spacing_p95_mm") is None else float(data["spacing_p95_mm"]),
         )
+
+    @property
+    def cleanup(self) -> CleanupReplay | None:
+        """The clean-up to repeat, or None for a placement stored before it was kept (the
+        clean-up is then searched for again, with the same result)."""
+        if not self.floors and self.voxel_mm is None:
+            return None
+        return CleanupReplay(self.floors, self.voxel_mm, self.spacing_p95_mm)
 
 
 @dataclass(frozen=True)
@@ -420,6 +439,10 @@ def _place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarra
             f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
         )
     axis, basis = _first_axis(samples, weights, shape_axes, up)
+    if faces is None:
+        # a cloud is sliced along this axis and then along axes a few degrees from it:
+        # sorted along it once, each slicing's sort is a pass over nearly sorted data
+        points = points[np.argsort(points @ axis, kind="stable")]
     half_spaces: tuple = ()
     try:
         # a bent leg's first axis is the body's: its landmarks may be found, and then not
@@ -486,7 +509,7 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
     for piece, index in enumerate(clean.pieces):
         points = clean.points[index]
         faces = cf.submesh(index, clean.faces, len(clean.points))
-        cuts = _split(points)
+        cuts = _split(points, clean.spacing_p95_mm)
         if cuts is None:
             out.append(_Candidate(points, faces, None, piece, -1, len(points)))
             continue
@@ -496,9 +519,10 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
     return out
 
 
-def _split(points: np.ndarray):
-    """The legs of a whole body or of two legs joined at the hips; None for one leg."""
-    return cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points)
+def _split(points: np.ndarray, spacing_p95_mm: float | None = None):
+    """The legs of a whole body or of two legs joined at the hips; None for one leg.
+    ``spacing_p95_mm``: the scan's point spacing when the clean-up measured it."""
+    return cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points, spacing_p95_mm)
 
 
 def _is_body(points: np.ndarray) -> bool:
@@ -585,19 +609,22 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                         "scan 3-4 cm further above the knee for a surer D")
     placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
                                 "side_confidence": confidence, "piece": candidate.piece,
-                                "half": candidate.half, "warnings": tuple(warnings)})
+                                "half": candidate.half, "warnings": tuple(warnings),
+                                "floors": tuple((f.point, f.normal) for f in clean.floors),
+                                "voxel_mm": clean.voxel_mm, "spacing_p95_mm": clean.spacing_p95_mm})
     return PlacedLeg(*_clip(candidate.points, candidate.faces, placement.half_spaces), placement)
 
 
 def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     """The leg of a placement found earlier on the same scan, without searching again:
-    the (deterministic) clean-up is repeated and the same piece and leg are cut out."""
-    clean = clean_scan(scan.points_mm, scan.faces)
+    the clean-up is repeated from the floor planes and voxel size it found, and the same
+    piece and leg are cut out."""
+    clean = clean_scan(scan.points_mm, scan.faces, placement.cleanup)
     if placement.piece >= len(clean.pieces):
         raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
     index = clean.pieces[placement.piece]
     points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
     if placement.half >= 0:
-        cut = _split(points)[placement.half]
+        cut = _split(points, clean.spacing_p95_mm)[placement.half]
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
     return PlacedLeg(*_clip(points, faces, placement.half_spaces), placement)

@@ -65,18 +65,24 @@ def dense_grid(surface: NurbsSurface, length_mm: float) -> tuple[np.ndarray, np.
     return u, v, evaluate_grid(surface, u, v)
 
 
-def point_triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Distance from p to triangle (a, b, c), all (N, 3) -> (N,) (Ericson 5.1.5, vectorized).
+def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Dot products over the last axis of (..., 3) arrays (broadcasting) -> (...)."""
+    return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
 
-    The Voronoi region of the closest feature (vertex, edge or face) is chosen on 1-D
-    arrays of barycentric weights (v, w) with closest point ``a + v*ab + w*ac``.
+
+def point_triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Distance from p to triangle (a, b, c), (..., 3) arrays that broadcast -> (...)
+    (Ericson 5.1.5, vectorized).
+
+    The Voronoi region of the closest feature (vertex, edge or face) is chosen on arrays
+    of barycentric weights (v, w) with closest point ``a + v*ab + w*ac``.
     """
     ab, ac, ap = b - a, c - a, p - a
-    d1 = np.einsum("ij,ij->i", ab, ap)
-    d2 = np.einsum("ij,ij->i", ac, ap)
-    ab_ab = np.einsum("ij,ij->i", ab, ab)
-    ab_ac = np.einsum("ij,ij->i", ab, ac)
-    ac_ac = np.einsum("ij,ij->i", ac, ac)
+    d1 = _dot(ab, ap)
+    d2 = _dot(ac, ap)
+    ab_ab = _dot(ab, ab)
+    ab_ac = _dot(ab, ac)
+    ac_ac = _dot(ac, ac)
     d3, d4 = d1 - ab_ab, d2 - ab_ac  # ab.bp, ac.bp with bp = ap - ab
     d5, d6 = d1 - ab_ac, d2 - ac_ac  # ab.cp, ac.cp with cp = ap - ac
     va = d3 * d6 - d5 * d4
@@ -100,8 +106,13 @@ def point_triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.
     for condition, rv, rw in reversed(regions):
         v = np.where(condition, rv, v)
         w = np.where(condition, rw, w)
-    diff = ap - v[:, None] * ab - w[:, None] * ac
-    return np.sqrt(np.einsum("ij,ij->i", diff, diff))
+    diff = ap - v[..., None] * ab - w[..., None] * ac
+    return np.sqrt(_dot(diff, diff))
+
+
+#: the 2 x 2 quads around a grid vertex, as (row, column) origins in its 3 x 4 neighbourhood
+_QUAD_ROW = np.array([0, 0, 1, 1])
+_QUAD_COL = np.array([0, 2, 0, 2])
 
 
 def algorithm1_distances(
@@ -111,23 +122,26 @@ def algorithm1_distances(
 
     points (N, 3); grid (a, b, 3) surface samples; tree over ``grid.reshape(-1, 3)``.
     Returns distances (N,), and the nearest vertex indices iu (N,), iv (N,).
+
+    The 8 triangles of the 2 x 2 quads around the nearest vertex (iu, iv) are built from
+    its neighbourhood gathered once, relative to the point: rows iu-1, iu, iu+1 (u
+    periodic) and the two quads' columns (origins iv-1 and iv, clamped to the grid, so
+    at the ends of v a quad is taken twice).
     """
     a, b, _ = grid.shape
     _, nearest = tree.query(points)
     iu, iv = np.divmod(nearest, b)
-    # the 2 x 2 quads around the vertex: origins (iu-1|iu, iv-1|iv); v clamped, u periodic
-    du = np.array([-1, 0, -1, 0])
-    dv = np.array([-1, -1, 0, 0])
-    qu = np.mod(iu[:, None] + du, a)
-    qv = np.clip(iv[:, None] + dv, 0, b - 2)
-    qu1 = np.mod(qu + 1, a)
-    p00, p10 = grid[qu, qv], grid[qu1, qv]
-    p11, p01 = grid[qu1, qv + 1], grid[qu, qv + 1]
-    tri_a = np.concatenate([p00, p00], axis=1).reshape(-1, 3)
-    tri_b = np.concatenate([p10, p01], axis=1).reshape(-1, 3)
-    tri_c = np.concatenate([p11, p11], axis=1).reshape(-1, 3)
-    rep = np.repeat(points, 8, axis=0)
-    dist = point_triangle_distances(rep, tri_a, tri_b, tri_c).reshape(-1, 8).min(axis=1)
+    rows = np.mod(iu[:, None] + np.array([-1, 0, 1]), a)
+    low, high = np.clip(iv - 1, 0, b - 2), np.clip(iv, 0, b - 2)
+    cols = np.stack([low, low + 1, high, high + 1], axis=1)
+    around = grid[rows[:, :, None], cols[:, None, :]] - points[:, None, None, :]  # (N, 3, 4, 3)
+    i, j = _QUAD_ROW, _QUAD_COL
+    p00, p10 = around[:, i, j], around[:, i + 1, j]
+    p11, p01 = around[:, i + 1, j + 1], around[:, i, j + 1]
+    tri_a = np.concatenate([p00, p00], axis=1)  # (N, 8, 3)
+    tri_b = np.concatenate([p10, p01], axis=1)
+    tri_c = np.concatenate([p11, p11], axis=1)
+    dist = point_triangle_distances(np.zeros(3), tri_a, tri_b, tri_c).min(axis=1)
     return dist, iu, iv
 
 

@@ -59,3 +59,40 @@ def test_a_leg_on_a_platform_cloud_is_fitted_as_without_it():
 def test_a_leg_alone_has_no_floor():
     points, n_leg = _leg_on_platform(0.0)
     assert cleanup.find_floor(points[:n_leg]) is None
+
+
+def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
+    """The fit repeats the upload check's clean-up from the floor planes and voxel size
+    the check found (carried in the placement as JSON), without RANSAC or the spacing
+    search: the same points, in the same pieces."""
+    import json
+
+    from app.geometry.placement import LegPlacement, place_leg
+
+    points, _ = _leg_on_platform(0.3)
+    scan = Scan(points, None, "mm", False, "xyz")
+    searched = cleanup.clean_scan(points, None)
+    placement = LegPlacement.from_dict(json.loads(json.dumps(place_leg(scan, None).placement.to_dict())))
+    assert len(placement.floors) == len(searched.floors) >= 1
+    assert placement.voxel_mm == searched.voxel_mm
+    replayed = cleanup.clean_scan(points, None, placement.cleanup)
+    assert np.array_equal(replayed.points, searched.points)
+    assert len(replayed.pieces) == len(searched.pieces)
+    assert all(np.array_equal(a, b) for a, b in zip(replayed.pieces, searched.pieces))
+    assert replayed.floor.n_removed == searched.floor.n_removed
+
+
+def test_a_placement_stored_without_the_clean_up_still_replays():
+    """Placements stored before the clean-up was kept in them (queued jobs across an
+    upgrade) have no floors: the clean-up is searched for again, with the same leg."""
+    from app.geometry.placement import LegPlacement, place_leg, replace_leg
+
+    points, _ = _leg_on_platform(0.3)
+    scan = Scan(points, None, "mm", False, "xyz")
+    data = place_leg(scan, None).placement.to_dict()
+    for key in ("floors", "voxel_mm", "spacing_p95_mm"):
+        data.pop(key)
+    old = LegPlacement.from_dict(data)
+    assert old.cleanup is None
+    new = LegPlacement.from_dict(place_leg(scan, None).placement.to_dict())
+    assert np.array_equal(replace_leg(scan, old).points, replace_leg(scan, new).points)
