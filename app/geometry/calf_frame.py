@@ -192,8 +192,6 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
     length = hi - lo
     if length < TWO_LEG_MIN_LENGTH_MM:
         return None
-    order = np.argsort(h)
-    hs = h[order]
     # the occupancy pixel must bridge the gaps between the points of one ring, or a sparse
     # mesh's shin falls apart into arcs: twice the 95th percentile of the point spacing
     # (meshes are denser at the joints than along the shin)
@@ -208,8 +206,7 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
         fractions = np.linspace(0.10, 0.50, 9)
         for f in fractions:
             level = lo + f * length if sign > 0 else hi - f * length
-            a, b = np.searchsorted(hs, [level - 10.0, level + 10.0])
-            sizes = _slab_blob_sizes(local[order[a:b], :2], pixel)
+            sizes = _slab_blob_sizes(local[(h >= level - 10.0) & (h < level + 10.0), :2], pixel)
             pairs += int(sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0])
         shares.append(pairs / len(fractions))
     if max(shares) < TWO_LEG_SLAB_SHARE:
