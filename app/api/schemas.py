@@ -228,8 +228,24 @@ class PopulationOut(BaseModel):
     modes: list[PopulationMode]
     girth_percentiles: dict[str, dict[str, float]] = Field(description="landmark -> p5, p25, p50, p75, p95 of the tape girths, mm")
     refitted: list[str] = Field(description="records refitted in mode lsq on their stored scans")
+    refit_records: dict[str, str] = Field(description="each refitted record -> the lsq record of its scan used")
     mirrored: list[str] = Field(description="left legs mirrored into right legs")
     links: dict[str, str]
+
+
+class PopulationRefit(BaseModel):
+    record_id: str = Field(description="a record of the population that is not an lsq record on the grid")
+    job_id: str = Field(description="the fit job refitting it in mode lsq on its stored scan")
+    status: str = Field(description="queued or running")
+    links: dict[str, str]
+
+
+class PopulationRefitting(BaseModel):
+    status: str = Field(description="refitting")
+    grid: str
+    refits: list[PopulationRefit]
+    detail: str
+    retry_after_s: int = Field(description="seconds to wait before making the same request again")
 
 
 class ScanPointsOut(BaseModel):

@@ -152,6 +152,13 @@ class JobRepository(_Owned):
         self.session.refresh(job)
         return job
 
+    def of_scans(self, scan_ids: list[str]) -> list[Job]:
+        """The jobs of these scans, newest first."""
+        if not scan_ids:
+            return []
+        query = self._scoped(select(Job).where(Job.scan_id.in_(scan_ids)))
+        return list(self.session.scalars(query.order_by(Job.created_at.desc(), Job.id.desc())))
+
     def queued_ids(self) -> list[str]:
         return list(self.session.scalars(select(Job.id).where(Job.status == JOB_QUEUED).order_by(Job.created_at, Job.id)))
 

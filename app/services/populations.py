@@ -3,16 +3,23 @@ main modes of variation, girth percentiles at B, B1, C, D.
 
 The statistics are :mod:`app.geometry.population`'s, over lsq nets of one grid.  A
 record that is not an lsq record on that grid is refitted on its stored scan (mode lsq,
-its side and units); an imported record has no scan and is refused with the reason.
+its side and units) by a fit job - the same jobs, runners, leases and retries as an
+upload's, not inside the request (a refit takes about a second; 200 of them would hold
+a request for minutes).  While refits are queued or running the answer is
+:class:`Refitting` (HTTP 202 with the jobs); the same request made again once they have
+succeeded finds their records and makes the population.  A refit whose job failed is
+refused with its reason, and so is an imported record (no scan to refit).
 """
 
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.db.repositories import ScanRepository
+from app.db.models import Job
+from app.db.repositories import JOB_FAILED, JOB_SUCCEEDED, JobRepository, ScanRepository
 from app.errors import Unprocessable, from_fit_failure
 from app.geometry.errors import FitFailure
 from app.geometry.landmarks import LANDMARK_NAMES
@@ -20,19 +27,48 @@ from app.geometry.lsq import LsqGrid, surface_from_net
 from app.geometry.measure import girths
 from app.geometry.population import as_right_leg, distinct_net, girth_percentiles, population_of
 from app.geometry.record import SCHEMA_VERSION, CalfRecord, parse_record
-from app.services.fitting import DEFAULT_GRID, fit_scan_file
+from app.services.fitting import DEFAULT_GRID, parse_options
 from app.services.records import RecordService
 
 MIN_RECORDS, MAX_RECORDS = 2, 200
+#: seconds a client is asked to wait before asking again while refits run (a fit takes
+#: about a second on one core; the answer is the same whenever it asks)
+REFIT_RETRY_S = 2
+
+
+@dataclass(frozen=True)
+class Refitting:
+    """The population waits for refits: ``refits`` (record id, job id, status) of the
+    records being refitted on the ``grid``; ``new_job_ids``: the jobs this request
+    queued, to hand to the runner once the transaction has committed."""
+
+    grid: str
+    refits: list
+    new_job_ids: list = field(default_factory=list)
+
+    def view(self) -> dict:
+        return {
+            "status": "refitting",
+            "grid": self.grid,
+            "refits": [{"record_id": r, "job_id": j, "status": status, "links": {"job": f"/api/v1/jobs/{j}"}}
+                       for r, j, status in self.refits],
+            "detail": f"{len(self.refits)} of the records are being refitted in mode lsq on the {self.grid} grid "
+                      "from their stored scans; make the same request again when their jobs have succeeded",
+            "retry_after_s": REFIT_RETRY_S,
+        }
 
 
 class PopulationService:
     def __init__(self, session, tenant_id: str, store):
         self.records = RecordService(session, tenant_id)
         self.scans = ScanRepository(session, tenant_id)
+        self.jobs = JobRepository(session, tenant_id)
         self.store = store
 
-    def create(self, record_ids: list[str], grid: str | None = None) -> dict:
+    def create(self, record_ids: list[str], grid: str | None = None) -> dict | Refitting:
+        """The population of ``record_ids`` (its view, the average stored as a record), or
+        :class:`Refitting` while some of them are being refitted (jobs queued here are
+        flushed, not committed: the caller commits, then hands them to the runner)."""
         ids = list(dict.fromkeys(record_ids))
         if not MIN_RECORDS <= len(ids) <= MAX_RECORDS:
             raise Unprocessable(f"a population needs {MIN_RECORDS} to {MAX_RECORDS} distinct records, got {len(ids)}",
@@ -40,13 +76,20 @@ class PopulationService:
         rows = [self.records.get(i) for i in ids]
         parsed = [parse_record(row.body) for row in rows]
         target = self._grid(parsed, grid)
-        nets, refitted, mirrored, tape = [], [], [], {name: [] for name in LANDMARK_NAMES}
+        off_grid = [(row, record) for row, record in zip(rows, parsed) if not _on_grid(record, target)]
+        refitted, new_jobs = self._refits(off_grid, target)
+        pending = [(row.id, job.id, job.status) for row, job in refitted.items() if isinstance(job, Job)]
+        if pending:
+            return Refitting(str(target), pending, [job.id for job in new_jobs])
+        nets, mirrored, tape = [], [], {name: [] for name in LANDMARK_NAMES}
         heights = {name: [] for name in LANDMARK_NAMES}
         layers = []
+        refit_records = {}
         for row, record in zip(rows, parsed):
-            if not _on_grid(record, target):
-                record = self._refit(row, record, target)
-                refitted.append(row.id)
+            if row in refitted:
+                refit_row = refitted[row]
+                refit_records[row.id] = refit_row.id
+                record = parse_record(refit_row.body)
             net = distinct_net(record.surface)
             if record.side == "left":
                 net = as_right_leg(net)
@@ -67,7 +110,8 @@ class PopulationService:
             "modes": [{"mode": i + 1, "variance_share": float(share), "sd_mm": float(sd)}
                       for i, (share, sd) in enumerate(zip(model.variance_share, model.sd_mm))],
             "girth_percentiles": girth_percentiles({k: np.array(v) for k, v in tape.items()}),
-            "refitted": refitted,
+            "refitted": list(refit_records),
+            "refit_records": refit_records,
             "mirrored": mirrored,
             "links": {"average": f"/api/v1/records/{stored.id}", "surface": f"/api/v1/records/{stored.id}/surface"},
         }
@@ -84,19 +128,43 @@ class PopulationService:
                  if r.fit.get("mode") == "lsq" and r.fit.get("grid")]
         return LsqGrid.parse(Counter(grids).most_common(1)[0][0] if grids else DEFAULT_GRID)
 
-    def _refit(self, row, record: CalfRecord, grid: LsqGrid) -> CalfRecord:
-        scan = self.scans.get(row.scan_id) if row.scan_id else None
-        if scan is None or not self.store.exists(scan.sha256):
-            raise Unprocessable(
-                f"record {row.id} is not an lsq record on the {grid} grid and has no stored scan to refit it on "
-                "(an imported record): leave it out, or upload its scan with mode=lsq", code="not_lsq")
-        options = {"side": record.side, "units": (record.scan or {}).get("units"), "mode": "lsq", "grid": str(grid)}
-        try:
-            fitted = fit_scan_file(str(self.store.path_for(scan.sha256)), scan.file_format, options)
-        except FitFailure as failure:
-            raise Unprocessable(f"record {row.id} could not be refitted in mode lsq: {failure.detail}",
-                                code="not_lsq") from failure
-        return parse_record(fitted["record"])
+    def _refits(self, off_grid: list, grid: LsqGrid) -> tuple[dict, list[Job]]:
+        """For each (row, record) off the grid: the record row of its succeeded lsq refit,
+        or its refit job still to run; and the jobs queued here (a record without one)."""
+        scans = {row.id: self.scans.get(row.scan_id) if row.scan_id else None for row, _ in off_grid}
+        jobs = self.jobs.of_scans([scan.id for scan in scans.values() if scan is not None])
+        out, new_jobs = {}, []
+        for row, record in off_grid:
+            scan = scans[row.id]
+            if scan is None or not self.store.exists(scan.sha256):
+                raise Unprocessable(
+                    f"record {row.id} is not an lsq record on the {grid} grid and has no stored scan to refit it on "
+                    "(an imported record): leave it out, or upload its scan with mode=lsq", code="not_lsq")
+            options = parse_options(record.side, (record.scan or {}).get("units"), None, "lsq", str(grid))
+            refit = self._refit_of(row, options, [j for j in jobs if j.scan_id == scan.id])
+            if refit is None:
+                refit = self.jobs.add(scan.id, options, None)
+                new_jobs.append(refit)
+            out[row] = refit
+        return out, new_jobs
+
+    def _refit_of(self, row, options: dict, jobs: list[Job]):
+        """The newest job of the scan with these options decides: succeeded - its record;
+        failed - refused with its reason; queued or running - wait for it; none (or its
+        record deleted since) - None, a new job is needed."""
+        for job in jobs:  # newest first
+            if job.options != options:
+                continue
+            if job.status == JOB_SUCCEEDED:
+                refit = self.records.records.get(job.record_id) if job.record_id else None
+                if refit is None:
+                    continue  # the refitted record was deleted since: refit again
+                return refit
+            if job.status == JOB_FAILED:
+                raise Unprocessable(f"record {row.id} could not be refitted in mode lsq (job {job.id}): "
+                                    f"{job.error_detail or job.error_code}", code="not_lsq")
+            return job
+        return None
 
     @staticmethod
     def _average_record(model, heights: dict, layers: list, grid: LsqGrid, ids: list[str], mirrored: list[str]) -> dict:

@@ -139,11 +139,28 @@ def test_a_population_of_records_gives_the_average_calf_modes_and_percentiles(cl
     data = (REAL / "vh_female_skin.glb").read_bytes()
     left = wait_for_job(client, client.post("/api/v1/scans", content=data, params={"side": "left"},
                                             headers={"Content-Type": "model/gltf-binary"}).headers["location"])
-    response = client.post("/api/v1/populations", json={"record_ids": [lsq_id, paper_id, left["record_id"]]})
+    request = {"record_ids": [lsq_id, paper_id, left["record_id"]]}
+    # the two paper records are refitted by fit jobs, not inside the request: 202 with the
+    # jobs; asked again while they run, the same jobs (none queued twice)
+    waiting = client.post("/api/v1/populations", json=request)
+    assert waiting.status_code == 202, waiting.text
+    assert int(waiting.headers["retry-after"]) >= 1
+    refits = {r["record_id"]: r for r in waiting.json()["refits"]}
+    assert set(refits) == {paper_id, left["record_id"]} and waiting.json()["grid"] == "12x24"
+    again = client.post("/api/v1/populations", json=request)
+    if again.status_code == 202:
+        assert {r["job_id"] for r in again.json()["refits"]} <= {r["job_id"] for r in refits.values()}
+    jobs = [wait_for_job(client, r["links"]["job"]) for r in refits.values()]
+    assert all(job["status"] == "succeeded" and job["options"]["mode"] == "lsq" and job["options"]["grid"] == "12x24"
+               for job in jobs)
+    response = client.post("/api/v1/populations", json=request)
     assert response.status_code == 201, response.text
     body = response.json()
     assert body["n"] == 3 and body["grid"] == "12x24"  # the lsq record's grid
     assert set(body["refitted"]) == {paper_id, left["record_id"]} and body["mirrored"] == [left["record_id"]]
+    assert set(body["refit_records"].values()) == {job["record_id"] for job in jobs}
+    # the refits are kept: the same population is made again without refitting
+    assert client.post("/api/v1/populations", json=request).status_code == 201
     assert 1 <= len(body["modes"]) <= 2 and 0 < body["modes"][0]["variance_share"] <= 1
     percentiles = body["girth_percentiles"]
     assert set(percentiles) == {"B", "B1", "C", "D"} and percentiles["C"]["p5"] <= percentiles["C"]["p95"]
