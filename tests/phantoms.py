@@ -73,3 +73,17 @@ def revolution_truth(sigma_mm: float = 0.0) -> dict:
     b1 = z[np.argmax(np.where((z > b) & (z < c), slope, -np.inf))]
     g = lambda h: float(2.0 * np.pi * calf_radius(np.array([h]))[0])  # noqa: E731
     return {"B": (b, g(b)), "B1": (b1, g(b1)), "C": (c, g(c)), "D": (d, g(d))}
+
+
+#: the 7 layer heights of :func:`paper_tube`, mm
+PAPER_TUBE_HEIGHTS = np.array([0.0, 40.0, 80.0, 130.0, 180.0, 230.0, 280.0])
+
+
+def paper_tube(a: float, b: float, m: int = 72):
+    """An elliptic tube as the paper's surface (7 layers x m points at
+    :data:`PAPER_TUBE_HEIGHTS`), semi-axes a, b mm."""
+    from app.geometry.nurbs import surface_from_layers
+
+    t = np.arange(m) * 2 * np.pi / m
+    layers = np.stack([np.stack([a * np.cos(t), b * np.sin(t), np.full(m, z)], axis=1) for z in PAPER_TUBE_HEIGHTS])
+    return surface_from_layers(layers)

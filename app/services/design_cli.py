@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.geometry.garment import LANDMARKS
+from app.geometry.landmarks import LANDMARK_NAMES as LANDMARKS
 from app.geometry.record import CalfRecord
 from app.services.designs import compute_design, inputs_from_request
 

@@ -18,7 +18,9 @@ from app.db.repositories import DesignRepository
 from app.errors import NotFound, from_fit_failure
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.exchange import apply_frame, surface_grid_faces
-from app.geometry.garment import PA_PER_MMHG, DesignInputs, Fabric, design_stocking, pressure_map
+from app.geometry.fabric import Fabric
+from app.geometry.garment import DesignInputs, design_stocking
+from app.geometry.pressure import PA_PER_MMHG, pressure_map
 from app.geometry.record import CalfRecord
 from app.services.records import RecordService
 
