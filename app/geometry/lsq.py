@@ -70,8 +70,9 @@ from app.geometry.surface_error import foot_points
 DEGREE = 3
 #: rounds of parameter correction against the scan points
 CORRECTIONS = 2
-#: scan points used per correction round at most (a fixed stride): the net has at most
-#: a few thousand unknowns, so 20k points over-determine it tenfold
+#: scan points per correction round: every floor(n / this)-th (so 20k-40k of a large
+#: scan; a cloud's calf points arrive already thinned to 20k): the net has at most a few
+#: thousand unknowns, so 20k points over-determine it tenfold
 MAX_CORRECTION_POINTS = 20_000
 #: weight of the tangential part of the squared distance in SDM (see
 #: :func:`solve_net_squared_distance`)
