@@ -206,17 +206,23 @@ def find_floor(points: np.ndarray) -> Floor | None:
 
 
 def spike_faces(points: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """(f,) bool: needle triangles sticking out of the skin (rule 2 of the docstring)."""
+    """(f,) bool: needle triangles sticking out of the skin (rule 2 of the docstring).
+    Only the triangles with an edge over the limit are tested further (area, tip)."""
     a, b, c = points[faces[:, 0]], points[faces[:, 1]], points[faces[:, 2]]
     edges = np.stack([np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)], 1)
     longest = edges.max(axis=1)
-    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     limit = max(SPIKE_EDGE_FACTOR * float(np.median(edges)), 20.0)
-    needle = (longest > limit) & (area < 0.05 * longest**2)
+    needle = np.zeros(len(faces), dtype=bool)
+    long = np.flatnonzero(longest > limit)
+    if long.size == 0:
+        return needle
+    area = 0.5 * np.linalg.norm(np.cross(b[long] - a[long], c[long] - a[long]), axis=1)
+    thin = long[area < 0.05 * longest[long] ** 2]
     # and it sticks out: one of its corners belongs to at most two triangles (a tip), not
     # a sliver inside a closed surface
     degree = np.bincount(faces.ravel(), minlength=len(points))
-    return needle & (degree[faces].min(axis=1) <= 2)
+    needle[thin[degree[faces[thin]].min(axis=1) <= 2]] = True
+    return needle
 
 
 def neighbour_distances(points: np.ndarray) -> np.ndarray:
