@@ -171,6 +171,29 @@ def test_a_population_of_records_gives_the_average_calf_modes_and_percentiles(cl
     assert step.status_code == 200
 
 
+def test_a_population_whose_refit_failed_is_refused_with_the_jobs_reason(client, lsq_record):
+    """A record whose refit job failed (here: marked failed, as a runner does after a
+    fit that keeps failing) is refused with that job's reason, not refitted forever."""
+    from app.db.models import Job
+
+    data = (REAL / "vh_male_skin.glb").read_bytes()
+    job = wait_for_job(client, client.post("/api/v1/scans", content=data, params={"side": "right"},
+                                           headers={"Content-Type": "model/gltf-binary"}).headers["location"])
+    request = {"record_ids": [lsq_record["id"], job["record_id"]]}
+    waiting = client.post("/api/v1/populations", json=request)
+    assert waiting.status_code == 202, waiting.text
+    refit = waiting.json()["refits"][0]
+    assert refit["record_id"] == job["record_id"] and refit["status"] in ("queued", "running")
+    wait_for_job(client, refit["links"]["job"])
+    with client.app.state.sessions() as session:
+        row = session.get(Job, refit["job_id"])
+        row.status, row.error_code, row.error_detail = "failed", "timeout", "the fit took longer than 600 s"
+        session.commit()
+    refused = client.post("/api/v1/populations", json=request)
+    assert refused.status_code == 422 and refused.json()["code"] == "not_lsq"
+    assert "took longer than 600 s" in refused.json()["detail"] and refit["job_id"] in refused.json()["detail"]
+
+
 def test_population_refusals(client, lsq_record):
     rid = lsq_record["id"]
     one = client.post("/api/v1/populations", json={"record_ids": [rid, rid]})
