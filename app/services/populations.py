@@ -145,6 +145,7 @@ class PopulationService:
             if refit is None:
                 refit = self.jobs.add(scan.id, options, None)
                 new_jobs.append(refit)
+                jobs.insert(0, refit)  # two records of one scan share its refit
             out[row] = refit
         return out, new_jobs
 
