@@ -78,8 +78,8 @@ class CleanScan:
     (list of point-index arrays, largest first), what was removed (``floors``, the planes
     in the order they were removed; counts).  A point cloud's ``voxel_mm`` (the voxel its
     pieces were joined by) and ``spacing_p95_mm`` (95th percentile of its nearest-neighbour
-    distances); None for a mesh.  ``floors`` and ``voxel_mm`` repeat the clean-up exactly
-    (:func:`clean_scan`'s ``replay``) without searching again."""
+    distances); None for a mesh.  :attr:`replay` repeats the clean-up exactly without
+    searching again."""
 
     points: np.ndarray
     faces: np.ndarray | None
@@ -99,6 +99,11 @@ class CleanScan:
         first = self.floors[0]
         return Floor(first.normal, first.point, sum(f.n_removed for f in self.floors))
 
+    @property
+    def replay(self) -> "CleanupReplay":
+        """What :func:`clean_scan` needs to repeat this clean-up on the same scan."""
+        return CleanupReplay(tuple((f.point, f.normal) for f in self.floors), self.voxel_mm, self.spacing_p95_mm)
+
 
 @dataclass(frozen=True)
 class CleanupReplay:
@@ -109,6 +114,20 @@ class CleanupReplay:
     floors: tuple = ()
     voxel_mm: float | None = None
     spacing_p95_mm: float | None = None
+
+    def to_dict(self) -> dict:
+        """JSON-ready (the keys of a stored placement)."""
+        return {"floors": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.floors],
+                "voxel_mm": self.voxel_mm, "spacing_p95_mm": self.spacing_p95_mm}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> "CleanupReplay | None":
+        """The replay in ``data`` (a stored placement), or None when it holds none."""
+        if "floors" not in data and "voxel_mm" not in data:
+            return None
+        optional = lambda key: None if data.get(key) is None else float(data[key])  # noqa: E731
+        return cls(tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float)) for p, n in data.get("floors", ())),
+                   optional("voxel_mm"), optional("spacing_p95_mm"))
 
 
 def _stride_sample(points: np.ndarray, count: int) -> np.ndarray:
@@ -272,16 +291,16 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None, replay: CleanupRepl
     same."""
     keep = np.ones(len(points), dtype=bool)
     floors: list[Floor] = []
-    if replay is not None:
-        planes = [Floor(np.asarray(n, dtype=float), np.asarray(p, dtype=float), 0) for p, n in replay.floors]
-    else:
-        planes = None
-    for attempt in range(MAX_FLOORS if planes is None else len(planes)):
-        plane = find_floor(points[keep]) if planes is None else planes[attempt]
-        if plane is None:
-            break
-        above = (points - plane.point) @ plane.normal >= FLOOR_TOLERANCE_MM
-        floors.append(Floor(plane.normal, plane.point, int((keep & ~above).sum())))
+    for attempt in range(MAX_FLOORS if replay is None else len(replay.floors)):
+        if replay is None:
+            found = find_floor(points[keep])
+            if found is None:
+                break
+            point, normal = found.point, found.normal
+        else:
+            point, normal = (np.asarray(x, dtype=float) for x in replay.floors[attempt])
+        above = (points - point) @ normal >= FLOOR_TOLERANCE_MM
+        floors.append(Floor(normal, point, int((keep & ~above).sum())))
         keep &= above
     n_spikes = 0
     spacing_p95 = None

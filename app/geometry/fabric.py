@@ -19,7 +19,6 @@ from app.geometry.errors import FailureReason, FitFailure
 DEFAULT_MAX_STRAIN = 1.0
 
 
-
 @dataclass(frozen=True)
 class Fabric:
     """Tension per unit width as a function of strain.

@@ -23,7 +23,8 @@ T [N/cm] * kappa [1/mm] = 1e5 * T * kappa Pa.
 Design
 ------
 Targets: a compression class at B (:data:`app.geometry.standards.COMPRESSION_CLASSES`)
-graded down the leg by :data:`app.geometry.standards.GRADIENT`, or explicit pressures at B, B1, C, D; in between, linear in height.
+graded down the leg by :data:`app.geometry.standards.GRADIENT`, or explicit pressures at
+B, B1, C, D; in between, linear in height.
 For every height from B to D (every ``step_mm`` and at the landmarks) the tension that
 gives the target mean pressure is T = P * L / (2*pi), the strain comes from the fabric
 (linear K, or a measured tension-strain table interpolated by PCHIP, monotone), and

@@ -64,12 +64,10 @@ class LegPlacement:
     warnings: tuple = ()
     #: a bent knee's cut: ((point (3,), normal (3,)), ...) in scan mm, keep (p - point) . normal <= 0
     half_spaces: tuple = ()
-    #: the clean-up's floor planes ((point (3,), normal (3,)), ...) in scan mm, in the order
-    #: removed, and a cloud's voxel size and point spacing (mm): the fit repeats the
-    #: clean-up from them
-    floors: tuple = ()
-    voxel_mm: float | None = None
-    spacing_p95_mm: float | None = None
+    #: what the clean-up found (floor planes, a cloud's voxel size and point spacing): the
+    #: fit repeats the clean-up from it; None in a placement stored before it was kept
+    #: (the clean-up is then searched for again, with the same result)
+    cleanup: CleanupReplay | None = None
 
     @property
     def frame(self) -> cf.CalfFrame:
@@ -84,8 +82,7 @@ class LegPlacement:
             "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
             "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
             "half_spaces": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.half_spaces],
-            "floors": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.floors],
-            "voxel_mm": self.voxel_mm, "spacing_p95_mm": self.spacing_p95_mm,
+            **(self.cleanup.to_dict() if self.cleanup is not None else {}),
         }
 
     @classmethod
@@ -100,18 +97,8 @@ class LegPlacement:
             piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
             half_spaces=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float))
                               for p, n in data.get("half_spaces", ())),
-            floors=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float)) for p, n in data.get("floors", ())),
-            voxel_mm=None if data.get("voxel_mm") is None else float(data["voxel_mm"]),
-            spacing_p95_mm=None if data.get("spacing_p95_mm") is None else float(data["spacing_p95_mm"]),
+            cleanup=CleanupReplay.from_dict(data),
         )
-
-    @property
-    def cleanup(self) -> CleanupReplay | None:
-        """The clean-up to repeat, or None for a placement stored before it was kept (the
-        clean-up is then searched for again, with the same result)."""
-        if not self.floors and self.voxel_mm is None:
-            return None
-        return CleanupReplay(self.floors, self.voxel_mm, self.spacing_p95_mm)
 
 
 @dataclass(frozen=True)
@@ -248,8 +235,7 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
                                 "side_confidence": confidence, "piece": candidate.piece,
                                 "half": candidate.half, "warnings": tuple(warnings),
-                                "floors": tuple((f.point, f.normal) for f in clean.floors),
-                                "voxel_mm": clean.voxel_mm, "spacing_p95_mm": clean.spacing_p95_mm})
+                                "cleanup": clean.replay})
     return PlacedLeg(*clip_to_half_spaces(candidate.points, candidate.faces, placement.half_spaces), placement)
 
 

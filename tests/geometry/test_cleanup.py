@@ -73,8 +73,8 @@ def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
     scan = Scan(points, None, "mm", False, "xyz")
     searched = cleanup.clean_scan(points, None)
     placement = LegPlacement.from_dict(json.loads(json.dumps(place_leg(scan, None).placement.to_dict())))
-    assert len(placement.floors) == len(searched.floors) >= 1
-    assert placement.voxel_mm == searched.voxel_mm
+    assert len(placement.cleanup.floors) == len(searched.floors) >= 1
+    assert placement.cleanup.voxel_mm == searched.voxel_mm
     replayed = cleanup.clean_scan(points, None, placement.cleanup)
     assert np.array_equal(replayed.points, searched.points)
     assert len(replayed.pieces) == len(searched.pieces)
