@@ -223,7 +223,7 @@ def build_parser() -> argparse.ArgumentParser:
     fit = sub.add_parser("fit", help="fit the NURBS calf model to a scan")
     fit.add_argument("scan")
     fit.add_argument("--side", choices=["left", "right"])
-    fit.add_argument("--units", choices=["mm", "cm", "m"])
+    fit.add_argument("--units", choices=["mm", "cm", "m", "in"])
     fit.add_argument("--points", type=int, default=15, help="feature points per layer (paper: 8 or 15)")
     fit.add_argument("--sections", type=int, default=200, help="resampled sections between B and D")
     fit.add_argument("--spacing", type=float, help="section spacing in mm (overrides --sections)")

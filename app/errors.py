@@ -100,6 +100,7 @@ FAILURE_TITLES = {
     FailureReason.INVALID_OPTION: "Invalid fitting option",
     FailureReason.DEGENERATE_SURFACE: "The surface cannot be built",
     FailureReason.INVALID_RECORD: "Invalid calf record",
+    FailureReason.SURFACE_TOO_COSTLY: "The surface is larger than the service evaluates",
     FailureReason.INVALID_TARGET: "Invalid pressure target",
     FailureReason.INVALID_FABRIC: "Invalid fabric",
     FailureReason.UNREACHABLE_PRESSURE: "The fabric cannot reach the pressure without tearing",

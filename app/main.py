@@ -11,6 +11,7 @@ from fastapi.openapi.utils import get_openapi
 
 from app import __version__
 from app.api import comparisons, designs, health, jobs, metrics, populations, records, scans, web
+from app.api.guard import RequestGuardMiddleware
 from app.api.middleware import RequestContextMiddleware
 from app.api.problems import add_problem_schema, install_problem_handlers
 from app.db.session import engine_for, session_factory
@@ -91,6 +92,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             expose_headers=["ETag", "Location", "Retry-After", "X-Request-ID"],
             max_age=600,
         )
+    # size and key checked from the headers, before any body is read (inside the request id)
+    app.add_middleware(RequestGuardMiddleware)
     # outermost: every response (CORS preflights and problems too) carries the request id
     app.add_middleware(RequestContextMiddleware, metrics=app.state.metrics)
     for module in (scans, jobs, records, comparisons, populations, designs, health, metrics, web):

@@ -23,6 +23,8 @@ class Settings(BaseSettings):
                          postgresql+psycopg://...
     CALF_WORKERS         fitting worker processes of the embedded runner (2)
     CALF_MAX_UPLOAD_MB   largest scan accepted, counted on the bytes received (200)
+    CALF_MAX_JSON_KB     largest JSON request body (1024): checked on Content-Length
+                         before the body is read, and on the bytes received
     CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES
                          most points / triangles in an accepted scan (4M / 4M: a whole
                          body at 1 mm holds ~2M; a calf needs ~50k)
@@ -61,6 +63,7 @@ class Settings(BaseSettings):
     database_url: str | None = None
     workers: int = Field(2, ge=1, le=64)
     max_upload_mb: float = Field(200.0, gt=0)
+    max_json_kb: float = Field(1024.0, gt=0)
     max_scan_points: int = Field(4_000_000, ge=1000)
     max_scan_faces: int = Field(4_000_000, ge=1000)
     run_jobs: bool = True
@@ -97,6 +100,10 @@ class Settings(BaseSettings):
     @property
     def max_upload_bytes(self) -> int:
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def max_json_bytes(self) -> int:
+        return int(self.max_json_kb * 1024)
 
     @property
     def scan_dir(self) -> Path:

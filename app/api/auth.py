@@ -15,6 +15,7 @@ from fastapi.security import APIKeyHeader, HTTPAuthorizationCredentials, HTTPBea
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
+from app.api.guard import PRINCIPAL_STATE
 
 from app.errors import Forbidden, TooManyRequests, Unauthorized
 from app.services.keys import LOCAL_PRINCIPAL, KeyService, Principal
@@ -35,6 +36,8 @@ def authorize(*scopes: str, upload: bool = False):
     ) -> Principal:
         if not request.app.state.settings.auth_required:
             principal = LOCAL_PRINCIPAL
+        elif PRINCIPAL_STATE in request.scope.get("state", {}):  # authenticated before the body was read
+            principal = request.scope["state"][PRINCIPAL_STATE]
         else:
             presented = credentials.credentials if credentials is not None else header_key
             if not presented:

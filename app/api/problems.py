@@ -82,7 +82,7 @@ def install_problem_handlers(app: FastAPI) -> None:
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException):
         phrase = HTTPStatus(exc.status_code).phrase
-        code = phrase.lower().replace(" ", "_").replace("-", "_")
+        code = "payload_too_large" if exc.status_code == 413 else phrase.lower().replace(" ", "_").replace("-", "_")
         detail = exc.detail if isinstance(exc.detail, str) else phrase
         if exc.status_code == 400 and detail == "There was an error parsing the body":  # FastAPI's words
             detail = "the request body cannot be read: it must be JSON in UTF-8"

@@ -48,7 +48,7 @@ UPLOAD_BODY = {
                     "properties": {
                         "file": {"type": "string", "format": "binary", "minLength": 1},
                         "side": {"type": "string", "enum": ["left", "right"]},
-                        "units": {"type": "string", "enum": ["mm", "cm", "m"]},
+                        "units": {"type": "string", "enum": ["mm", "cm", "m", "in"]},
                         "points": {"type": "integer", "minimum": 4, "maximum": 36, "default": 15},
                         "mode": {"type": "string", "enum": ["paper", "lsq"], "default": "paper"},
                         "grid": {"type": "string", "pattern": GRID_PATTERN},
@@ -89,7 +89,8 @@ UPLOAD_BODY = {
 async def upload_scan(
     request: Request,
     side: Literal["left", "right"] | None = Query(None, description="which leg of a whole-body scan"),
-    units: Literal["mm", "cm", "m"] | None = Query(None, description="the file's unit; detected from the extent when omitted"),
+    units: Literal["mm", "cm", "m", "in"] | None = Query(
+        None, description="the file's unit; detected from the extent (mm, m or cm) when omitted"),
     points: int | None = Query(None, ge=4, le=36, description="feature points per layer (paper: 8 or 15)"),
     mode: Literal["paper", "lsq"] | None = Query(
         None, description="paper: the paper's 7 x points interpolation; lsq: least squares on all the calf's points"),

@@ -32,6 +32,7 @@ class FailureReason(str, enum.Enum):
     INVALID_OPTION = "invalid_option"
     DEGENERATE_SURFACE = "degenerate_surface"
     INVALID_RECORD = "invalid_record"
+    SURFACE_TOO_COSTLY = "surface_too_costly"
     # garment design
     INVALID_TARGET = "invalid_target"
     INVALID_FABRIC = "invalid_fabric"

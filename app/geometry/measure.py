@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull
 
-from app.geometry.exchange import tessellate
-from app.geometry.nurbs import NurbsSurface
+from app.geometry.exchange import surface_grid_faces, tessellate
+from app.geometry.nurbs import NurbsSurface, evaluate_grid
 from app.geometry.sections import mesh_section_segments
 
 
@@ -34,16 +34,41 @@ def surface_height_range(surface: NurbsSurface) -> tuple[float, float]:
     return float(z.min()), float(z.max())
 
 
+#: rows of the dense tessellation cut at a time (720 x 129 vertices, ~2 MB): the memory of
+#: a measurement does not grow with the height of the surface
+ROWS_PER_CHUNK = 128
+
+
 def girths(surface: NurbsSurface, heights: np.ndarray, n_around: int = 720) -> list[Girth]:
-    """Girths of the surface at calf-frame heights (k,) mm; NaN where the plane misses."""
+    """Girths of the surface at calf-frame heights (k,) mm; NaN where the plane misses.
+
+    The surface is tessellated ``n_around`` x one row per 0.5 mm and cut chunk by chunk
+    of :data:`ROWS_PER_CHUNK` rows (each triangle lies in exactly one chunk, so a plane
+    that crosses two chunks gets its segments from both): bounded memory for any height.
+    """
     heights = np.asarray(heights, dtype=np.float64)
     z0, z1 = surface_height_range(surface)
     n_along = max(int(np.ceil((z1 - z0) * 2)) + 1, 8)
-    vertices, faces = tessellate(surface, n_around, n_along)
     # planes exactly on the end rings are nudged inside by a micrometre
     planes = np.clip(heights, z0 + 1e-3, z1 - 1e-3)
     order = np.argsort(planes)
-    plane, segments = mesh_section_segments(vertices, faces, planes[order])
+    sorted_planes = planes[order]
+    u0, u1 = surface.domain_u
+    v0, v1 = surface.domain_v
+    u = u0 + (u1 - u0) * np.arange(n_around) / n_around
+    v = np.linspace(v0, v1, n_along)
+    pieces: list[tuple[np.ndarray, np.ndarray]] = []
+    for start in range(0, n_along - 1, ROWS_PER_CHUNK):
+        rows = v[start:min(start + ROWS_PER_CHUNK, n_along - 1) + 1]
+        vertices = evaluate_grid(surface, u, rows).reshape(-1, 3)
+        low = np.searchsorted(sorted_planes, vertices[:, 2].min(), side="left")
+        high = np.searchsorted(sorted_planes, vertices[:, 2].max(), side="right")
+        if high <= low:
+            continue
+        plane, segments = mesh_section_segments(vertices, surface_grid_faces(n_around, len(rows)), sorted_planes[low:high])
+        pieces.append((plane + low, segments))
+    plane = np.concatenate([p for p, _ in pieces]) if pieces else np.empty(0, dtype=np.int64)
+    segments = np.concatenate([s for _, s in pieces]) if pieces else np.empty((0, 2, 2))
     out: list[Girth | None] = [None] * len(heights)
     lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
     perimeters = np.bincount(plane, weights=lengths, minlength=len(heights))

@@ -217,6 +217,10 @@ def basis_derivatives_fast(knots: np.ndarray, degree: int, n_ctrl: int, u: np.nd
     return np.transpose(np.matmul(coefficients, monomials), (2, 0, 1))
 
 
+#: working memory of one chunk of :func:`evaluate_derivatives` (bytes)
+EVALUATION_CHUNK_BYTES = 32 * 1024 * 1024
+
+
 def evaluate_derivatives(
     surface: NurbsSurface, u: np.ndarray, v: np.ndarray
 ) -> tuple[np.ndarray, ...]:
@@ -230,6 +234,12 @@ def evaluate_derivatives(
     p, q = surface.degree_u, surface.degree_v
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
+    # the gathered patches take (p+1)(q+1) x 4 channels x ~5 arrays of float64 per point:
+    # evaluated in chunks of EVALUATION_CHUNK_BYTES, so memory does not grow with N
+    chunk = max(1024, EVALUATION_CHUNK_BYTES // (8 * (p + 1) * (q + 1) * 4 * 5))
+    if len(u) > chunk:
+        parts = [evaluate_derivatives(surface, u[i:i + chunk], v[i:i + chunk]) for i in range(0, len(u), chunk)]
+        return tuple(np.concatenate([part[k] for part in parts]) for k in range(6))
     su = find_spans(surface.knots_u, p, nu, u)
     sv = find_spans(surface.knots_v, q, nv, v)
     du = basis_derivatives_fast(surface.knots_u, p, nu, u, su)  # (3, N, p+1)

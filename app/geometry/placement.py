@@ -28,6 +28,7 @@ from app.geometry import calf_frame as cf
 from app.geometry.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
+from app.geometry.leg_size import check_leg_size
 from app.geometry.scan_io import MIN_POINTS, Scan
 from app.geometry.side import infer_side
 
@@ -236,7 +237,10 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                                 "side_confidence": confidence, "piece": candidate.piece,
                                 "half": candidate.half, "warnings": tuple(warnings),
                                 "cleanup": clean.replay})
-    return PlacedLeg(*clip_to_half_spaces(candidate.points, candidate.faces, placement.half_spaces), placement)
+    leg = PlacedLeg(*clip_to_half_spaces(candidate.points, candidate.faces, placement.half_spaces), placement)
+    # a leg in inches reads as one in cm: the girth at C tells (app.geometry.leg_size)
+    check_leg_size(placement.frame.to_calf(leg.points), placement.c_mm, scan.units, scan.units_detected)
+    return leg
 
 
 def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:

@@ -44,6 +44,7 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit import FitResult
 from app.geometry.landmarks import LANDMARK_NAMES
 from app.geometry.nurbs import NurbsSurface, evaluate_grid
+from app.geometry.surface_bounds import check_leg_tube, check_surface_cost
 
 SCHEMA_VERSION = 2
 READABLE_VERSIONS = (1, 2)
@@ -191,8 +192,18 @@ def _check_closed_around(surface: NurbsSurface) -> None:
             "whose first and last control columns coincide")
 
 
+def parse_importable(data: dict) -> CalfRecord:
+    """A record made elsewhere: :func:`parse_record`, and its surface must be a leg's
+    tube (:func:`app.geometry.surface_bounds.check_leg_tube`: no zero radius, no
+    self-overlap, height rising along v)."""
+    record = parse_record(data)
+    check_leg_tube(record.surface)
+    return record
+
+
 def parse_record(data: dict) -> CalfRecord:
-    """Validate a record dictionary (knots, shapes, weights, finiteness) and build it."""
+    """Validate a record dictionary (knots, shapes, weights, finiteness, the cost bounds of
+    :mod:`app.geometry.surface_bounds`) and build it."""
     if not isinstance(data, dict):
         raise _invalid("a record must be a JSON object")
     version = data.get("schema_version")
@@ -239,6 +250,7 @@ def parse_record(data: dict) -> CalfRecord:
     if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
         raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
     surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    check_surface_cost(surface)  # before anything is evaluated
     _check_closed_around(surface)
     frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)
     if frame.shape != (4, 4) or not np.allclose(frame[3], [0, 0, 0, 1]):

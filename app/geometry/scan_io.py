@@ -23,16 +23,22 @@ import numpy as np
 import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.gltf_count import gltf_json, gltf_scene_size
+from app.geometry.scan_integrity import binary_stl_count, check_ply_integrity, check_stl_integrity
 
 #: file extensions (lower case, no dot) the reader accepts
 SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt")
 
 #: millimetres per unit
-UNIT_SCALE_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0}
+UNIT_SCALE_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
 
 #: plausible extent of a leg or body scan, mm
 MIN_EXTENT_MM = 120.0
 MAX_EXTENT_MM = 2500.0
+
+#: no coordinate of a scan lies further from its origin (file units: 10 km in mm); past
+#: it sums of squares overflow (1e308) and the numbers cannot be a leg's
+MAX_COORDINATE = 1e7
 
 #: fewer points than this cannot carry 200 sections x 72 angles of skin
 MIN_POINTS = 500
@@ -158,91 +164,6 @@ def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[n
     return unique, inverse.reshape(-1)[faces]
 
 
-def check_stl_integrity(data: bytes) -> None:
-    """Refuse truncated or corrupt STL before parsing.
-
-    Binary STL: 80-byte header, uint32 triangle count n, then exactly 50 * n bytes.
-    ASCII STL: starts with ``solid`` and ends with ``endsolid``.
-    """
-    if _binary_stl_count(data) is not None:
-        return  # a well-formed binary STL (even if its header says "solid")
-    head = data[:512].lstrip().lower()
-    if head.startswith(b"solid") and b"facet" in data[:4096].lower():
-        if not data.rstrip().lower().split(b"\n")[-1].strip().startswith(b"endsolid"):
-            raise FitFailure(FailureReason.TRUNCATED_FILE, "the ASCII STL is truncated: it does not end with 'endsolid'")
-        return
-    if len(data) < 84:
-        raise FitFailure(FailureReason.TRUNCATED_FILE, f"the STL is {len(data)} bytes, shorter than a binary STL header (84)")
-    count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
-    expected = 84 + 50 * count
-    if len(data) < expected:
-        raise FitFailure(
-            FailureReason.TRUNCATED_FILE,
-            f"the binary STL is truncated: its header announces {count} triangles "
-            f"({expected} bytes) but the file has {len(data)} bytes",
-        )
-    raise FitFailure(
-        FailureReason.UNREADABLE_FILE,
-        f"the binary STL announces {count} triangles ({expected} bytes) but the file has {len(data)} bytes",
-    )
-
-
-#: bytes of the PLY scalar types (PLY 1.0 names and their sized aliases)
-_PLY_TYPE_BYTES = {"char": 1, "uchar": 1, "int8": 1, "uint8": 1, "short": 2, "ushort": 2, "int16": 2,
-                   "uint16": 2, "int": 4, "uint": 4, "int32": 4, "uint32": 4, "float": 4, "float32": 4,
-                   "double": 8, "float64": 8}
-
-
-#: a line holding something other than white space (one C-level pass over a body)
-_DATA_LINE = re.compile(rb"^[ \t\r]*\S", re.MULTILINE)
-
-
-def check_ply_integrity(data: bytes) -> None:
-    """Refuse a PLY that holds fewer elements than its header announces.
-
-    The header lists ``element vertex N`` and ``element face M`` with their properties
-    and ends with ``end_header``.  ASCII: one element per line, so at least N + M data
-    lines must follow.  Binary: at least N vertex records (fixed size from the scalar
-    properties) plus M face records of a triangle (list count + 3 indices) must follow.
-    A reader would otherwise return the elements present and a scan cut short would be
-    fitted, or refused for the wrong reason.
-    """
-    end = data.find(b"end_header")
-    if not data.startswith(b"ply") or end < 0:
-        return  # not a PLY header: the reader gives the reason
-    body_start = data.find(b"\n", end)
-    body = data[body_start + 1 :] if body_start >= 0 else b""
-    elements: list[list] = []  # [name, count, fixed bytes, minimum list bytes]
-    fmt = "ascii"
-    for line in data[:end].decode("ascii", "replace").splitlines():
-        words = line.split()
-        if len(words) >= 2 and words[0] == "format":
-            fmt = words[1]
-        elif len(words) == 3 and words[0] == "element" and words[2].isdigit():
-            elements.append([words[1], int(words[2]), 0, 0])
-        elif elements and len(words) == 3 and words[0] == "property":
-            elements[-1][2] += _PLY_TYPE_BYTES.get(words[1], 0)
-        elif elements and len(words) == 5 and words[:2] == ["property", "list"]:
-            count_bytes, item_bytes = _PLY_TYPE_BYTES.get(words[2], 0), _PLY_TYPE_BYTES.get(words[3], 0)
-            elements[-1][3] += count_bytes + 3 * item_bytes  # at least a triangle
-    plural = {"vertex": "vertices"}
-    announced = ", ".join(f"{count} {plural.get(name, name + 's') if count != 1 else name}"
-                          for name, count, _, _ in elements)
-    if fmt == "ascii":
-        needed = sum(count for _, count, _, _ in elements)
-        present = len(_DATA_LINE.findall(body))
-        unit = "lines"
-    else:
-        needed = sum(count * (fixed + listed) for _, count, fixed, listed in elements)
-        present, unit = len(body), "bytes"
-    if present < needed:
-        raise FitFailure(
-            FailureReason.TRUNCATED_FILE,
-            f"the PLY is truncated: its header announces {announced} ({needed} {unit} of data) "
-            f"but the file has {present}",
-        )
-
-
 def _check_size(what: str, count: int, limit: int) -> None:
     if count > limit:
         raise FitFailure(
@@ -252,21 +173,12 @@ def _check_size(what: str, count: int, limit: int) -> None:
         )
 
 
-def _binary_stl_count(data: bytes) -> int | None:
-    """The triangle count of a well-formed binary STL (80-byte header, uint32 n, then
-    exactly 50 n bytes), or None when ``data`` is not one (even if it says "solid")."""
-    if len(data) < 84:
-        return None
-    count = int(np.frombuffer(data[80:84], dtype="<u4")[0])
-    return count if len(data) == 84 + 50 * count else None
-
-
 def _ascii_text(data: bytes, fmt: str) -> bytes:
     """Text formats (ASCII STL, OBJ, OFF) with bytes beyond ASCII - a solid or group
     name in Latin-1, UTF-8 or another code page - get those bytes replaced by '?'.
     Only names and comments can hold them (numbers and keywords are ASCII), so the
     geometry is unchanged, and no guess at the code page is needed."""
-    if fmt not in ("stl", "obj", "off") or data.isascii() or (fmt == "stl" and _binary_stl_count(data) is not None):
+    if fmt not in ("stl", "obj", "off") or data.isascii() or (fmt == "stl" and binary_stl_count(data) is not None):
         return data
     array = np.frombuffer(data, dtype=np.uint8).copy()
     array[array >= 0x80] = 0x3F
@@ -298,6 +210,9 @@ def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | 
     if isinstance(geometry, trimesh.Trimesh):
         faces = np.asarray(geometry.faces, dtype=np.int64)
         vertices = np.asarray(geometry.vertices, dtype=np.float64)
+        if vertices.ndim != 2 or vertices.shape[1] != 3:
+            raise FitFailure(FailureReason.UNREADABLE_FILE, f"the mesh's vertices have "
+                             f"{vertices.shape[-1] if vertices.ndim == 2 else 'no'} coordinates; a 3D scan's have three (x y z)")
         if not len(faces):
             return vertices, None
         if not np.isfinite(vertices).all():
@@ -333,8 +248,10 @@ def load_scan(
         The file.  With bytes, ``file_type`` names the format.
     file_type : str, optional
         Format (extension without the dot); taken from the path when omitted.
-    units : {"mm", "cm", "m"}, optional
-        Unit of the coordinates; detected from the extent when omitted.
+    units : {"mm", "cm", "m", "in"}, optional
+        Unit of the coordinates; detected from the extent when omitted (mm, m or cm:
+        inches are never guessed from the extent; :mod:`app.geometry.leg_size` names
+        them when the calf reads too thin).
 
     Raises
     ------
@@ -355,15 +272,23 @@ def load_scan(
     fmt = _format_of(name, file_type)
     if units is not None and units not in UNIT_SCALE_MM:
         raise FitFailure(
-            FailureReason.INVALID_OPTION, f"units must be one of mm, cm, m, not {units!r}"
+            FailureReason.INVALID_OPTION, f"units must be one of mm, cm, m, in, not {units!r}"
         )
     if not data.strip():
         raise FitFailure(FailureReason.EMPTY_SCAN, "the file is empty")
 
-    announced = _binary_stl_count(data) if fmt == "stl" else None
+    announced = binary_stl_count(data) if fmt == "stl" else None
     if max_faces is not None and announced is not None:
         # a binary STL says how many triangles it holds before any is read
         _check_size("triangles", announced, max_faces)
+    if fmt in ("glb", "gltf") and (max_points is not None or max_faces is not None):
+        # a scene instancing one mesh N times is counted from its JSON before trimesh
+        # expands it (app.geometry.gltf_count)
+        size = gltf_scene_size(gltf_json(data, fmt))
+        if max_faces is not None:
+            _check_size("triangles (every instance of the scene counted)", size.triangles, max_faces)
+        if max_points is not None:
+            _check_size("points (every instance of the scene counted)", size.points, max_points)
     if fmt in ("xyz", "csv", "txt"):
         points, faces = _read_text_cloud(data), None
     else:
@@ -379,6 +304,10 @@ def load_scan(
 
     if points.size == 0:
         raise FitFailure(FailureReason.EMPTY_SCAN, "the scan has no points")
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise FitFailure(FailureReason.UNREADABLE_FILE,
+                         f"the scan's vertices have {points.shape[-1] if points.ndim == 2 else 'no'} coordinates; "
+                         "a 3D scan's have three (x y z)")
     if not np.isfinite(points).all():
         bad = int((~np.isfinite(points)).any(axis=1).sum())
         raise FitFailure(
@@ -390,6 +319,12 @@ def load_scan(
             FailureReason.TOO_FEW_POINTS,
             f"the scan has {len(points)} points; at least {MIN_POINTS} are needed",
         )
+    reach = float(np.abs(points).max())
+    if reach > MAX_COORDINATE:
+        raise FitFailure(
+            FailureReason.IMPLAUSIBLE_SIZE,
+            f"the scan's coordinates reach {reach:.3g} file units from its origin; a scan's lie within "
+            f"{MAX_COORDINATE:.0e} (10 km in mm): the numbers are not coordinates of a leg")
     extent = float(np.ptp(points, axis=0).max())
     detected = units is None
     unit = detect_units(extent) if detected else units

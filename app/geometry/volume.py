@@ -32,6 +32,8 @@ GAUSS_POINTS = 8
 #: subdivisions of every u knot span (the band ends are curves in (u, v))
 U_SUBDIVISIONS = 4
 _BRACKET_SAMPLES = 400
+#: quadrature points evaluated at a time (their derivatives take ~150 bytes each)
+QUADRATURE_CHUNK_POINTS = 65536
 _NEWTON_STEPS = 40
 
 
@@ -101,7 +103,12 @@ def volume_between(surface: NurbsSurface, low_mm: float, high_mm: float) -> floa
     v = (half[..., None] * nodes + (0.5 * (start + end))[..., None])  # (nu, spans, g)
     w = wu[:, None, None] * half[..., None] * weights  # (nu, spans, g)
     uu = np.broadcast_to(u[:, None, None], v.shape)
-    s, su, sv, _, _, _ = evaluate_derivatives(surface, uu.ravel(), v.ravel())
-    normal = np.cross(su, sv)
-    integrand = 0.5 * (s[:, 0] * normal[:, 0] + s[:, 1] * normal[:, 1])
-    return float(abs((integrand * w.ravel()).sum()))
+    # summed over chunks of u nodes: the quadrature's memory does not grow with the net
+    per_chunk = max(1, QUADRATURE_CHUNK_POINTS // (v.shape[1] * v.shape[2]))
+    total = 0.0
+    for i in range(0, len(u), per_chunk):
+        s, su, sv, _, _, _ = evaluate_derivatives(surface, uu[i:i + per_chunk].ravel(), v[i:i + per_chunk].ravel())
+        normal = np.cross(su, sv)
+        integrand = 0.5 * (s[:, 0] * normal[:, 0] + s[:, 1] * normal[:, 1])
+        total += float((integrand * w[i:i + per_chunk].ravel()).sum())
+    return abs(total)

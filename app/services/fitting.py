@@ -34,7 +34,7 @@ def parse_options(side: str | None, units: str | None, points: str | int | None,
         raise invalid(f"side must be 'left' or 'right', not {side!r}")
     units = (units or "").strip().lower() or None
     if units not in (None, *UNIT_SCALE_MM):
-        raise invalid(f"units must be one of mm, cm, m, not {units!r}")
+        raise invalid(f"units must be one of mm, cm, m, in, not {units!r}")
     if points in (None, ""):
         m = DEFAULT_POINTS
     else:

@@ -18,7 +18,7 @@ from app.geometry.errors import FitFailure
 from app.geometry.exchange import export_mesh, surface_mesh
 from app.geometry.landmarks import LANDMARK_NAMES
 from app.geometry.measure import girths, surface_height_range
-from app.geometry.record import CalfRecord
+from app.geometry.record import CalfRecord, parse_importable
 
 MESH_MEDIA_TYPES = {"stl": "model/stl", "glb": "model/gltf-binary", "gltf": "model/gltf+json"}
 #: the surface's formats: meshes (tessellated, scan coordinates) and the exact CAD ones
@@ -59,7 +59,10 @@ class RecordService:
 
     def import_record(self, data: dict) -> Record:
         """Validate a record made elsewhere and store its normalized form."""
-        parsed = _parse(data)
+        try:
+            parsed = parse_importable(data)
+        except FitFailure as failure:
+            raise from_fit_failure(failure) from failure
         body = parsed.to_dict()
         return self.records.add(body, record_etag(body), "import", None)
 

@@ -120,3 +120,19 @@ def test_nan_coordinates_and_absurd_sizes_are_refused(leg_mesh):
     with pytest.raises(FitFailure) as info:
         load_scan(leg_mesh.export(file_type="stl"), file_type="stl", units="m")
     assert info.value.reason == FailureReason.IMPLAUSIBLE_SIZE
+
+
+def test_vertices_with_two_coordinates_are_unreadable_not_a_crash():
+    from benchmarks.hostile_inputs import obj_with_2d_vertices
+
+    with pytest.raises(FitFailure) as caught:
+        load_scan(obj_with_2d_vertices(), file_type="obj")
+    assert caught.value.reason == FailureReason.UNREADABLE_FILE and "2 coordinates" in caught.value.detail
+
+
+def test_coordinates_whose_squares_overflow_are_refused():
+    from benchmarks.hostile_inputs import huge_coordinate_xyz
+
+    with pytest.raises(FitFailure) as caught:
+        load_scan(huge_coordinate_xyz(), file_type="xyz")
+    assert caught.value.reason == FailureReason.IMPLAUSIBLE_SIZE and "1e+308" in caught.value.detail

@@ -128,7 +128,7 @@ function uploadScreen() {
   drop, fileInput, chosen,
   h('div', { class: 'grid-half' },
     h('div', {}, ...select('side', 'Side (for a body or two legs)', [['', 'detect'], ['left', 'left'], ['right', 'right']]),
-      ...select('units', 'Units of the file', [['', 'detect from size'], ['mm', 'mm'], ['cm', 'cm'], ['m', 'm']])),
+      ...select('units', 'Units of the file', [['', 'detect from size'], ['mm', 'mm'], ['cm', 'cm'], ['m', 'm'], ['in', 'inches']])),
     h('div', {}, ...select('mode', 'Surface', [['paper', 'paper (7 layers, interpolated)'], ['lsq', 'least squares (all points)']]),
       h('label', { for: 'points', text: 'Feature points per layer (paper)' }), h('input', { id: 'points', type: 'number', min: 4, max: 36, value: 15 }),
       h('label', { for: 'grid', text: 'Control net along x around (least squares)' }), gridInput)),

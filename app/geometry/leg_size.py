@@ -1,0 +1,73 @@
+"""Is the placed leg the size of a human leg?  The unit check after placement.
+
+The scan's unit is detected from its extent (:func:`app.geometry.scan_io.detect_units`),
+which cannot tell a leg in inches from one in centimetres (a 16-inch lower leg reads
+as a 160 mm one).  Once the calf is found, its girth at C says more: ANSUR II (6,068
+US Army adults, 2012; ``tests/data/ansur2``) measured calf circumferences of
+266-523 mm.  A calf is refused when its tape girth at C lies outside
+[:data:`MIN_CALF_GIRTH_MM`, :data:`MAX_CALF_GIRTH_MM`] = [266 / 1.25, 523 x 1.6] mm: the
+lower margin admits adolescents and slight adults; the upper, lymphoedema and obese
+legs up to 837 mm; and the band is narrow enough that no ANSUR calf in inches read as
+cm (at most 523 / 2.54 = 206 mm) or in cm read as mm, or in mm read as cm, falls in it.
+Children's legs (under ~210 mm at the calf) are outside this service's range.
+
+The refusal names the unit that would make the calf most plausible: of mm, cm, m and
+inches, the one that puts the girth inside the band and closest (in ratio) to the
+ANSUR II median of 385 mm.  Units: mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.scan_io import UNIT_SCALE_MM
+
+ANSUR_CALF_GIRTH_MM = (266.0, 385.0, 523.0)  # min, median, max
+MIN_CALF_GIRTH_MM = ANSUR_CALF_GIRTH_MM[0] / 1.25
+MAX_CALF_GIRTH_MM = ANSUR_CALF_GIRTH_MM[2] * 1.6
+#: half-height of the slab of points whose hull is the girth at C (mm)
+SLAB_MM = 3.0
+UNIT_NAMES = {"mm": "millimetres", "cm": "centimetres", "m": "metres", "in": "inches"}
+
+
+def calf_girth_mm(points_calf: np.ndarray, c_mm: float) -> float | None:
+    """Tape girth (convex-hull perimeter, mm) of the calf-frame points (n, 3) within
+    :data:`SLAB_MM` of the height ``c_mm``; None when too few points lie there."""
+    slab = points_calf[np.abs(points_calf[:, 2] - c_mm) <= SLAB_MM, :2]
+    if len(slab) < 8:
+        return None
+    try:
+        return float(ConvexHull(slab).area)  # in 2-D, "area" is the perimeter
+    except QhullError:
+        return None
+
+
+def likeliest_unit(girth_mm: float, unit: str) -> tuple[str, float] | None:
+    """The unit (and the girth it would give, mm) that makes a calf read as ``girth_mm``
+    in ``unit`` most plausible, or None when none puts it inside the band."""
+    best = None
+    for other, scale in UNIT_SCALE_MM.items():
+        girth = girth_mm * scale / UNIT_SCALE_MM[unit]
+        if other != unit and MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM:
+            score = abs(np.log(girth / ANSUR_CALF_GIRTH_MM[1]))
+            if best is None or score < best[0]:
+                best = (score, other, girth)
+    return None if best is None else (best[1], best[2])
+
+
+def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detected: bool) -> None:
+    """Refuse (``implausible_size``) a calf whose girth at C fits no human leg in ``unit``."""
+    girth = calf_girth_mm(points_calf, c_mm)
+    if girth is None or MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM:
+        return
+    how = "detected from the scan's extent" if unit_detected else "as given"
+    read = f"read in {UNIT_NAMES.get(unit, unit)} ({how})"
+    detail = (f"the calf measures {girth:.0f} mm round at its widest, {read}; a human calf is "
+              f"{MIN_CALF_GIRTH_MM:.0f}-{MAX_CALF_GIRTH_MM:.0f} mm round (ANSUR II adults, with a margin)")
+    other = likeliest_unit(girth, unit)
+    if other is not None:
+        detail += (f". The file is most likely in {UNIT_NAMES[other[0]]} (the calf would then be {other[1]:.0f} mm "
+                   f"round): upload it again with units={other[0]}")
+    raise FitFailure(FailureReason.IMPLAUSIBLE_SIZE, detail)
