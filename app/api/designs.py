@@ -12,7 +12,7 @@ from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session
-from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, answer_once, idempotency_key
+from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
 from app.api.schemas import DesignOut, DesignRequest
 from app.errors import NotAcceptable, NotFound
@@ -38,9 +38,16 @@ async def create_design(record_id: str, body: DesignRequest, request: Request, s
                         principal: Principal = Depends(authorize("design")), idempotency: str | None = Depends(idempotency_key)):
     inputs = body.model_dump()
 
-    async def design() -> JSONResponse:
-        made = await run_in_threadpool(DesignService(session, principal.tenant_id).create, record_id, inputs)
-        return JSONResponse(jsonable_encoder(design_view(made)), status_code=201, headers={"Location": f"/api/v1/designs/{made.id}"})
+    async def design(stage: Stage | None) -> JSONResponse:
+        answer: dict = {}
+
+        def keep_answer(made) -> None:  # in the design's transaction
+            answer["body"] = jsonable_encoder(design_view(made))
+            if stage is not None:
+                stage(201, answer["body"], f"/api/v1/designs/{made.id}")
+
+        made = await run_in_threadpool(DesignService(session, principal.tenant_id).create, record_id, inputs, keep_answer)
+        return JSONResponse(answer["body"], status_code=201, headers={"Location": f"/api/v1/designs/{made.id}"})
 
     return await answer_once(request, session, principal, idempotency, "create_design",
                              {"record_id": record_id, "inputs": body.model_dump(mode="json")}, design)

@@ -30,28 +30,44 @@ def idempotency_key(key: str | None = Header(None, alias="Idempotency-Key", patt
     return key
 
 
+#: what a route's ``respond`` gets: ``stage(status, body, location)`` writes the answer to
+#: the request's session for the service to commit with its work (None without a key)
+Stage = Callable[[int, dict, "str | None"], None]
+
+
 async def answer_once(request: Request, session: Session, principal: Principal, key: str | None, operation: str,
-                      content: dict, respond: Callable[[], Awaitable[JSONResponse]],
+                      content: dict, respond: Callable[["Stage | None"], Awaitable[JSONResponse]],
                       on_replay: Callable[[], None] | None = None) -> JSONResponse:
-    """``respond()``, once per key: without a key, just respond; with one, replay the
-    stored response, or respond and store a 2xx response under the key."""
+    """``respond(stage)``, once per key: without a key, just respond; with one, replay the
+    stored response, or respond and keep its 2xx answer under the key.  A ``respond`` that
+    calls ``stage`` before its service commits stores the answer in the same transaction
+    as the work (crash-safe); otherwise the answer is stored after it."""
     if key is None:
-        return await respond()
-    service = IdempotencyService(session, principal.tenant_id, request.app.state.settings.idempotency_hours)
+        return await respond(None)
+    settings = request.app.state.settings
+    service = IdempotencyService(session, principal.tenant_id, settings.idempotency_hours,
+                                 hold_s=settings.validation_timeout_s + 60.0)
     outcome = await run_in_threadpool(service.begin, key, operation, fingerprint(content))
     if isinstance(outcome, Replay):
         if on_replay is not None:
             on_replay()
         headers = {"Idempotent-Replayed": "true", **({"Location": outcome.location} if outcome.location else {})}
         return JSONResponse(outcome.body, status_code=outcome.status_code, headers=headers)
+    staged = []
+
+    def stage(status_code: int, body: dict, location: str | None) -> None:
+        service.stage(outcome, status_code, body, location)
+        staged.append(status_code)
+
     try:
-        response = await respond()
+        response = await respond(stage)
     except BaseException:
         await run_in_threadpool(service.abandon, outcome)
         raise
     if 200 <= response.status_code < 300:
-        await run_in_threadpool(service.finish, outcome, response.status_code, json.loads(response.body),
-                                response.headers.get("location"))
+        if not staged:
+            await run_in_threadpool(service.finish, outcome, response.status_code, json.loads(response.body),
+                                    response.headers.get("location"))
     else:
         await run_in_threadpool(service.abandon, outcome)
     return response

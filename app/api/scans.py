@@ -13,7 +13,7 @@ from fastapi.encoders import jsonable_encoder
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
-from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, answer_once, idempotency_key
+from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
@@ -114,7 +114,7 @@ async def upload_scan(
         upload.discard()
         raise
 
-    async def check_and_queue() -> JSONResponse:
+    async def check_and_queue(stage: Stage | None) -> JSONResponse:
         # the quick acceptance check runs in a worker process: reading the file and
         # finding the calf (ankle, calf, knee); nothing is stored if it fails (the
         # received file is discarded below, on any failure)
@@ -133,10 +133,17 @@ async def upload_scan(
             raise
         finally:
             request.app.state.metrics.check_seconds.labels(outcome).observe(time.perf_counter() - started)
-        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options, store, placement)
+        answer: dict = {}
+
+        def keep_answer(job, scan, reused) -> None:  # in the job's transaction
+            answer["body"] = jsonable_encoder(job_view(job, scan, reused))
+            if stage is not None:
+                stage(202, answer["body"], f"/api/v1/jobs/{job.id}")
+
+        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options,
+                                                    store, placement, keep_answer)
         await runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
-        body = jsonable_encoder(job_view(job, scan, reused))
-        return JSONResponse(body, status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
+        return JSONResponse(answer["body"], status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
 
     content = {"sha256": upload.sha256, "format": upload.file_format, "options": options}
     try:

@@ -176,6 +176,8 @@ class IdempotentRequest(Base):
     status_code: Mapped[int | None] = mapped_column(Integer)
     response_body: Mapped[dict | None] = mapped_column(JSON)
     location: Mapped[str | None] = mapped_column(String(300))
+    #: the process answering a pending request (host:pid:tag), to tell a dead one
+    owner: Mapped[str | None] = mapped_column(String(100))
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
     expires_at: Mapped[datetime] = mapped_column(UTCDateTime(), nullable=False)
     __table_args__ = (UniqueConstraint("tenant_id", "key", name="uq_idempotent_requests_tenant_key"),

@@ -271,10 +271,11 @@ class IdempotentRequestRepository(_Owned):
     def by_key(self, key: str) -> IdempotentRequest | None:
         return self.session.scalar(self._scoped(select(IdempotentRequest).where(IdempotentRequest.key == key)))
 
-    def reserve(self, key: str, operation: str, fingerprint: str, expires_at: datetime) -> IdempotentRequest:
-        """Insert a pending row; a concurrent one with the same key raises IntegrityError."""
+    def reserve(self, key: str, operation: str, fingerprint: str, expires_at: datetime, owner: str) -> IdempotentRequest:
+        """Insert a pending row held by ``owner``; a concurrent one with the same key raises IntegrityError."""
         return _inserted(self.session, IdempotentRequest(tenant_id=self._owner(None), key=key, operation=operation,
-                                                         fingerprint=fingerprint, state="pending", expires_at=expires_at))
+                                                         fingerprint=fingerprint, state="pending", expires_at=expires_at,
+                                                         owner=owner))
 
     def complete(self, row_id: str, status_code: int, body: dict, location: str | None) -> None:
         self.session.execute(update(IdempotentRequest).where(IdempotentRequest.id == row_id).values(

@@ -8,6 +8,7 @@ import csv
 import hashlib
 import io
 import json
+from collections.abc import Callable
 
 import numpy as np
 import trimesh
@@ -77,8 +78,9 @@ class DesignService:
         self.designs = DesignRepository(session, tenant_id)
         self.records = RecordService(session, tenant_id)
 
-    def create(self, record_id: str, data: dict) -> Design:
-        """Design from a stored record; stores it with its inputs; commits."""
+    def create(self, record_id: str, data: dict, before_commit: Callable[[Design], None] | None = None) -> Design:
+        """Design from a stored record; stores it with its inputs; commits
+        (``before_commit(design)`` runs in that transaction)."""
         row = self.records.get(record_id)
         try:
             record = CalfRecord.from_dict(row.body)
@@ -92,6 +94,8 @@ class DesignService:
         stored_inputs = inputs_as_dict(inputs)
         etag = hashlib.sha256(json.dumps([row.etag, stored_inputs], sort_keys=True).encode()).hexdigest()
         design = self.designs.add(record_id, stored_inputs, result, etag)
+        if before_commit is not None:
+            before_commit(design)
         self.session.commit()
         return design
 

@@ -11,8 +11,13 @@ again with the same key:
 - the same key with other content (other bytes, other options, another record or
   design request) answers 409 ``idempotency_key_reused``: a key names one request;
 - a retry while the first is still being answered answers 409
-  ``idempotency_key_in_use`` with Retry-After (a reservation older than
-  :data:`PENDING_TAKEOVER` belongs to a request that died, and is taken over);
+  ``idempotency_key_in_use`` with Retry-After.  A reservation whose owner process has
+  died (this host: its pid is gone; :mod:`app.services.process_owner`) is taken over at
+  once, so the retry after a crash does the work; one held by another host's process is
+  taken over after ``hold_s`` (the longest a first request can take: the upload check's
+  time limit and a margin);
+- the stored answer is written in the same transaction as the work it answers (the
+  job, the design): a crash leaves both or neither, so a retry never does it twice;
 - a first request that fails (4xx) frees its key: the retry is answered afresh.
 
 Keys are per tenant: two clinics may use the same key for different requests.
@@ -32,11 +37,12 @@ from sqlalchemy.orm import Session
 from app.db.models import utcnow
 from app.db.repositories import IdempotentRequestRepository
 from app.errors import BadRequest, Conflict
+from app.services.process_owner import owner_is_dead, this_process
 
 #: printable ASCII without spaces, as the draft's examples; at most 255
 KEY_PATTERN = re.compile(r"^[\x21-\x7e]{1,255}$")
-#: a pending reservation this old was left by a request that died (an upload check takes
-#: at most CALF_VALIDATION_TIMEOUT_S, 60 s by default)
+#: a pending reservation without an owner (from before owners were recorded) this old
+#: was left by a request that died
 PENDING_TAKEOVER = timedelta(minutes=15)
 
 
@@ -62,10 +68,20 @@ def fingerprint(content: dict) -> str:
 
 
 class IdempotencyService:
-    def __init__(self, session: Session, tenant_id: str, keep_hours: float):
+    def __init__(self, session: Session, tenant_id: str, keep_hours: float, hold_s: float = 120.0):
         self.session = session
         self.requests = IdempotentRequestRepository(session, tenant_id)
         self.keep = timedelta(hours=keep_hours)
+        self.hold = timedelta(seconds=hold_s)
+
+    def _abandoned(self, row, now) -> bool:
+        """Was this pending reservation left by a request that died?"""
+        dead = owner_is_dead(row.owner)
+        if dead:
+            return True
+        # alive here (a request that leaked its reservation), or on another host: by age
+        age = now - row.created_at
+        return age >= (self.hold if dead is None and row.owner else PENDING_TAKEOVER)
 
     def begin(self, key: str, operation: str, content_sha256: str) -> Replay | Reservation:
         """The stored response to replay, or a reservation of ``key``; commits.  409 for a
@@ -83,7 +99,7 @@ class IdempotencyService:
         if row is not None and row.state == "done":
             self.session.commit()
             return Replay(row.status_code, row.response_body, row.location)
-        if row is not None and now - row.created_at < PENDING_TAKEOVER:
+        if row is not None and not self._abandoned(row, now):
             self.session.commit()
             error = Conflict("a request with this Idempotency-Key is still being answered; retry in a moment",
                              code="idempotency_key_in_use")
@@ -92,7 +108,7 @@ class IdempotencyService:
         if row is not None:  # left pending by a request that died: take it over
             self.requests.remove(row.id)
         try:
-            reserved = self.requests.reserve(key, operation, content_sha256, now + self.keep)
+            reserved = self.requests.reserve(key, operation, content_sha256, now + self.keep, this_process())
             self.session.commit()
         except IntegrityError:  # the same key arrived concurrently: that request goes first
             self.session.rollback()
@@ -102,6 +118,11 @@ class IdempotencyService:
     def finish(self, reservation: Reservation, status_code: int, body: dict, location: str | None) -> None:
         self.requests.complete(reservation.row_id, status_code, body, location)
         self.session.commit()
+
+    def stage(self, reservation: Reservation, status_code: int, body: dict, location: str | None) -> None:
+        """Write the answer into the session without committing: the service that does
+        the work commits it with the work, in one transaction."""
+        self.requests.complete(reservation.row_id, status_code, body, location)
 
     def abandon(self, reservation: Reservation) -> None:
         self.session.rollback()

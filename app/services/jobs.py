@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
@@ -21,8 +23,11 @@ class JobService:
         self.scans = ScanRepository(session, tenant_id)
         self.jobs = JobRepository(session, tenant_id)
 
-    def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore, placement: dict | None = None) -> tuple[Job, Scan, bool]:
+    def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore, placement: dict | None = None,
+               before_commit: Callable[[Job, Scan, bool], None] | None = None) -> tuple[Job, Scan, bool]:
         """Store the scan once (content-addressed) and queue a job; commits.
+        ``before_commit(job, scan, reused)`` runs in the job's transaction (the
+        idempotent answer is stored with the job).
 
         Returns (job, scan, reused) - reused when the same bytes were already stored.
         """
@@ -47,6 +52,8 @@ class JobService:
         else:
             upload.discard()
         job = self.jobs.add(scan.id, options, placement)
+        if before_commit is not None:
+            before_commit(job, scan, reused)
         self.session.commit()
         return job, scan, reused
 

@@ -19,6 +19,7 @@ from app.main import create_app
 from app.services.idempotency import PENDING_TAKEOVER, IdempotencyService, Replay, Reservation
 from app.services.keys import KeyService
 from tests.api.conftest import make_settings, wait_for_job
+from tests.conftest import REAL
 
 LEG = Path(__file__).resolve().parents[1] / "data" / "real" / "bodyparts3d_right_leg.stl"
 
@@ -127,3 +128,60 @@ def test_a_key_in_use_answers_409_until_its_request_ends_or_dies(service):
         assert isinstance(taken, Reservation) and taken != reservation
         ids.finish(taken, 201, {"id": "d1"}, "/api/v1/designs/d1")
         assert ids.begin("in-flight", "create_design", "f" * 64) == Replay(201, {"id": "d1"}, "/api/v1/designs/d1")
+
+
+def test_a_reservation_whose_process_died_is_taken_over_at_once(service):
+    """After a crash the retry does the work (once) instead of waiting out a 409: the
+    reservation names its process, and a process of this host that is gone - or our own
+    pid under another tag, a restart that got the same pid - holds nothing."""
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    _, sessions, _ = service
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead_pid = int(ended.stdout)
+    owners = {"dead-pid": f"{socket.gethostname()}:{dead_pid}:0badc0de",
+              "restarted": f"{socket.gethostname()}:{os.getpid()}:0badc0de"}
+    with sessions() as session:
+        tenant = session.scalar(select(IdempotentRequest.tenant_id).limit(1))
+        ids = IdempotencyService(session, tenant, keep_hours=24)
+        for key, owner in owners.items():
+            first = ids.begin(key, "upload_scan", "e" * 64)
+            session.execute(update(IdempotentRequest).where(IdempotentRequest.key == key).values(owner=owner))
+            session.commit()
+            taken = ids.begin(key, "upload_scan", "e" * 64)
+            assert isinstance(taken, Reservation) and taken != first
+        # a live owner on another host keeps its key for the hold time only
+        ids.begin("elsewhere", "upload_scan", "e" * 64)
+        session.execute(update(IdempotentRequest).where(IdempotentRequest.key == "elsewhere").values(
+            owner="another-host:1:0badc0de"))
+        session.commit()
+        with pytest.raises(Conflict):
+            ids.begin("elsewhere", "upload_scan", "e" * 64)
+        session.execute(update(IdempotentRequest).where(IdempotentRequest.key == "elsewhere").values(
+            created_at=utcnow() - ids.hold - timedelta(seconds=1)))
+        session.commit()
+        assert isinstance(ids.begin("elsewhere", "upload_scan", "e" * 64), Reservation)
+
+
+def test_the_answer_is_stored_in_the_transaction_of_the_job(service, monkeypatch):
+    """The job and its stored answer are one commit: nothing is written for the key after
+    the job's commit (a crash there - here: any later write failing - cannot leave a job
+    whose retry would queue a second one)."""
+    client, sessions, keys = service
+
+    def crash(*args, **kwargs):
+        raise RuntimeError("the process died after the job's commit")
+
+    monkeypatch.setattr(IdempotencyService, "finish", crash)
+    leg = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
+    headers = {"Content-Type": "model/stl", "Idempotency-Key": "one-commit", "Authorization": f"Bearer {keys['clinic-a']}"}
+    first = client.post("/api/v1/scans", content=leg, headers=headers)
+    assert first.status_code == 202
+    with sessions() as session:
+        row = session.scalar(select(IdempotentRequest).where(IdempotentRequest.key == "one-commit"))
+        assert row.state == "done" and row.response_body["id"] == first.json()["id"]
+    again = client.post("/api/v1/scans", content=leg, headers=headers)
+    assert again.headers["Idempotent-Replayed"] == "true" and again.json()["id"] == first.json()["id"]
