@@ -194,6 +194,7 @@ def _cmd_worker(args: argparse.Namespace) -> int:
             settings.job_timeout_s,
             lease_s=settings.job_lease_s,
             max_attempts=settings.job_max_attempts,
+            worker_memory_bytes=settings.worker_memory_bytes,
         )
         await runner.start()
         print(json.dumps({"worker": "started", "processes": settings.workers}), flush=True)

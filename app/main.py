@@ -11,12 +11,13 @@ from fastapi.openapi.utils import get_openapi
 
 from app import __version__
 from app.api import comparisons, designs, health, jobs, metrics, populations, records, scans, web
-from app.api.guard import RequestGuardMiddleware
+from app.api.guard import HeadAsGetMiddleware, RequestGuardMiddleware
 from app.api.middleware import RequestContextMiddleware
 from app.api.problems import add_problem_schema, install_problem_handlers
 from app.db.session import engine_for, session_factory
 from app.jobs.runner import EmbeddedRunner
 from app.metrics import Metrics
+from app.services.fair_share import CheckGate
 from app.services.rate_limits import RateLimiter
 from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
@@ -60,7 +61,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
                                           settings.run_jobs, metrics=app.state.metrics, lease_s=settings.job_lease_s,
-                                          max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings))
+                                          max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings),
+                                          worker_memory_bytes=settings.worker_memory_bytes)
         removed = app.state.store.clean_temp(TEMP_MAX_AGE_S)
         if removed:
             log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)
@@ -74,8 +76,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         finally:
             await app.state.runner.stop()
 
-    app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan)
+    docs = settings.api_docs  # off by default: see Settings (CALF_API_DOCS)
+    app = FastAPI(title="calf-nurbs", version=__version__, description=DESCRIPTION, lifespan=lifespan,
+                  docs_url="/docs" if docs else None, redoc_url="/redoc" if docs else None)
     app.state.metrics = Metrics()
+    app.state.check_gate = CheckGate(settings.checks_per_tenant, settings.validation_timeout_s)
     app.state.rate_limits = {
         "requests": RateLimiter(settings.rate_limit, settings.rate_burst),
         "uploads": RateLimiter(settings.upload_rate_limit, settings.upload_rate_burst),
@@ -100,6 +105,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.include_router(module.router)
     app.mount("/web", web.static_files(), name="web")
     app.add_middleware(web.SecurityHeadersMiddleware)
+    app.add_middleware(HeadAsGetMiddleware)
 
     def openapi() -> dict:
         if app.openapi_schema is None:

@@ -33,6 +33,12 @@ class Settings(BaseSettings):
                          whose runner died is taken by another after this
     CALF_JOB_MAX_ATTEMPTS
                          claims of a job whose worker keeps dying before it fails (3)
+    CALF_WORKER_MEMORY_MB
+                         address-space cap of each check and fit worker process (4096;
+                         0: none); a scan that needs more is refused (scan_too_large)
+    CALF_TENANT_MAX_JOBS one clinic's jobs queued or running at once (10); past it 429
+    CALF_TENANT_MAX_CHECKS
+                         one clinic's upload checks at once (all workers but one, >= 1)
     CALF_BROKER_URL      redis://host:6379/0: fitting jobs go through Dramatiq on Redis and
                          `calf-nurbs worker` runs Dramatiq workers (none: the embedded runner)
     CALF_BROKER_HEARTBEAT_S
@@ -51,6 +57,10 @@ class Settings(BaseSettings):
                          how long an Idempotency-Key's first response is kept (24)
     CALF_LOG_LEVEL / CALF_LOG_JSON
                          log level (INFO); JSON lines (true) or plain text (false)
+    CALF_API_DOCS        true: serve the interactive API docs at /docs and /redoc (false: they
+                         load Swagger UI and ReDoc from a CDN with an inline script, on the
+                         origin where the workbench keeps the API key; the contract is
+                         openapi/openapi.json and GET /openapi.json)
     CALF_AUTH            required | off.  Default: required, unless the service is bound
                          to localhost (127.0.0.1, ::1, localhost), where it is off and
                          every request acts for the tenant "default" (a warning is logged
@@ -74,6 +84,9 @@ class Settings(BaseSettings):
     broker_heartbeat_s: float = Field(60.0, ge=1.0)
     broker_namespace: str = "calf-nurbs"
     job_max_attempts: int = Field(3, ge=1, le=20)
+    tenant_max_jobs: int = Field(10, ge=1)
+    worker_memory_mb: float = Field(4096.0, ge=0)
+    tenant_max_checks: int | None = Field(None, ge=1)
     host: str = "127.0.0.1"
     cors_origins: list[str] = Field(default_factory=list)
     auth: Literal["required", "off"] | None = None
@@ -84,6 +97,7 @@ class Settings(BaseSettings):
     idempotency_hours: float = Field(24.0, gt=0)
     log_level: Literal["DEBUG", "INFO", "WARNING", "ERROR"] = "INFO"
     log_json: bool = True
+    api_docs: bool = False
 
     @property
     def auth_required(self) -> bool:
@@ -100,6 +114,14 @@ class Settings(BaseSettings):
     @property
     def max_upload_bytes(self) -> int:
         return int(self.max_upload_mb * 1024 * 1024)
+
+    @property
+    def worker_memory_bytes(self) -> int:
+        return int(self.worker_memory_mb * 1024 * 1024)
+
+    @property
+    def checks_per_tenant(self) -> int:
+        return self.tenant_max_checks or max(1, self.workers - 1)
 
     @property
     def max_json_bytes(self) -> int:

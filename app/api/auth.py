@@ -15,7 +15,7 @@ from fastapi.security import APIKeyHeader, HTTPAuthorizationCredentials, HTTPBea
 from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
-from app.api.guard import PRINCIPAL_STATE
+from app.api.guard import PRINCIPAL_STATE, presented_key
 
 from app.errors import Forbidden, TooManyRequests, Unauthorized
 from app.services.keys import LOCAL_PRINCIPAL, KeyService, Principal
@@ -70,3 +70,17 @@ def authorize(*scopes: str, upload: bool = False):
         return principal
 
     return dependency
+
+
+def optional_principal(request: Request, session: Session) -> Principal | None:
+    """The principal of the request's key when it has a valid one (no error otherwise):
+    for public routes that show more to an operator.  Auth off: the local principal."""
+    if not request.app.state.settings.auth_required:
+        return LOCAL_PRINCIPAL
+    key = presented_key(dict(request.scope.get("headers") or []))
+    if key is None:
+        return None
+    try:
+        return KeyService(session).authenticate(key)
+    except Unauthorized:
+        return None

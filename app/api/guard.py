@@ -98,3 +98,25 @@ class RequestGuardMiddleware:
             return message
 
         await self.app(scope, counted_receive, send)
+
+
+class HeadAsGetMiddleware:
+    """HEAD on every GET route (RFC 9110 9.3.2): answered as the GET would be - status
+    and headers, Content-Length included - without the body.  FastAPI's routes answer
+    only the methods they declare; the static files answer HEAD themselves."""
+
+    def __init__(self, app):
+        self.app = app
+
+    async def __call__(self, scope, receive, send):
+        if scope["type"] != "http" or scope["method"] != "HEAD" or scope["path"].startswith("/web/"):
+            return await self.app(scope, receive, send)
+
+        async def send_headers_only(message):
+            if message["type"] == "http.response.body":
+                if message.get("more_body", False):
+                    return
+                message = {"type": "http.response.body", "body": b"", "more_body": False}
+            await send(message)
+
+        await self.app({**scope, "method": "GET"}, receive, send_headers_only)

@@ -1,14 +1,14 @@
-"""GET /api/v1/jobs/{id}."""
+"""GET /api/v1/jobs/{id}; GET /api/v1/usage: the clinic's own queue and limits."""
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, Request
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session
 from app.api.problems import auth_problems, problems
-from app.api.schemas import JobOut
+from app.api.schemas import JobOut, UsageOut
 from app.services.jobs import JobService, job_view
 from app.services.keys import Principal
 
@@ -20,3 +20,10 @@ router = APIRouter(prefix="/api/v1", tags=["jobs"], responses=auth_problems())
 def get_job(job_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "upload"))):
     job, scan = JobService(session, principal.tenant_id).get(job_id)
     return job_view(job, scan)
+
+
+@router.get("/usage", response_model=UsageOut, summary="Your clinic's jobs by status and the fair-share limits that apply")
+def get_usage(request: Request, session: Session = Depends(get_session),
+              principal: Principal = Depends(authorize("read", "upload"))):
+    settings = request.app.state.settings
+    return JobService(session, principal.tenant_id).usage(settings)

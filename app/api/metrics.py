@@ -1,8 +1,9 @@
 """GET /metrics: the process's Prometheus metrics (app.metrics).
 
-With keys required it needs an ``admin`` key (Prometheus sends it with
-``authorization: {credentials: <key>}`` in its scrape config): the counts show how busy
-the service is, which is no one else's business.  Labels hold no tenant or patient.
+With keys required it needs an ``operator`` key - the service operator's, not a
+clinic's (Prometheus sends it with ``authorization: {credentials: <key>}`` in its
+scrape config): the counts are every clinic's, which is no clinic's business.  Labels
+hold no tenant or patient.  A clinic sees its own queue at ``GET /api/v1/usage``.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ router = APIRouter(tags=["health"])
             response_class=Response,
             responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}},
                              "description": "Prometheus text exposition format 0.0.4"}, **auth_problems()})
-async def metrics(request: Request, session: Session = Depends(get_session), principal: Principal = Depends(authorize("admin"))):
+async def metrics(request: Request, session: Session = Depends(get_session), principal: Principal = Depends(authorize("operator"))):
     counts = await run_in_threadpool(job_status_counts, session)
     body = request.app.state.metrics.render(counts)
     return Response(body, media_type=request.app.state.metrics.content_type)

@@ -47,7 +47,7 @@ async def create_population(
     runner: EmbeddedRunner = Depends(get_runner),
     principal: Principal = Depends(authorize("upload")),
 ):
-    service = PopulationService(session, principal.tenant_id, store)
+    service = PopulationService(session, principal.tenant_id, store, request.app.state.settings.tenant_max_jobs)
     result = await run_in_threadpool(service.create, body.record_ids, body.grid)
     session.commit()
     if isinstance(result, Refitting):

@@ -19,6 +19,12 @@ from app.geometry.errors import FitFailure
 PROBLEM_MEDIA_TYPE = "application/problem+json"
 #: routes whose body is a document with its own problem code (by route name)
 BODY_PROBLEMS = {"import_record": ("invalid_record", "Invalid calf record")}
+#: pydantic's errors of a value out of its bounds (not of a value of the wrong type)
+RANGE_ERRORS = {"greater_than", "greater_than_equal", "less_than", "less_than_equal", "too_long", "too_short",
+                "value_error", "literal_error", "finite_number"}
+#: routes whose body fields have problem codes of their own (by route name, then field)
+FIELD_PROBLEMS = {"create_design": {"fabric": ("invalid_fabric", "Invalid fabric"),
+                                    "targets_mmHg": ("invalid_target", "Invalid pressure target")}}
 log = logging.getLogger("calf_nurbs.api")
 
 
@@ -77,6 +83,11 @@ def install_problem_handlers(app: FastAPI) -> None:
         document = errors and all(e["loc"][:1] == ["body"] and e["type"] != "json_invalid" for e in errors)
         if document and getattr(route, "name", None) in BODY_PROBLEMS:
             code, title = BODY_PROBLEMS[route.name]
+        fields = FIELD_PROBLEMS.get(getattr(route, "name", None), {})
+        named = {e["loc"][1] for e in errors if len(e["loc"]) > 1 and e["loc"][0] == "body"}
+        out_of_range = all(e["type"] in RANGE_ERRORS for e in errors)
+        if document and out_of_range and len(named) == 1 and next(iter(named)) in fields:
+            code, title = fields[next(iter(named))]
         return problem_response(request, 422, code, title, detail, {"errors": errors[:50]})
 
     @app.exception_handler(StarletteHTTPException)

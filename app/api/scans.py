@@ -17,7 +17,7 @@ from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_on
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
-from app.errors import Unavailable
+from app.errors import TooManyRequests, Unavailable
 from app.geometry.errors import FitFailure
 from app.geometry.scan_io import SUPPORTED_FORMATS
 from app.jobs.runner import EmbeddedRunner
@@ -104,6 +104,8 @@ async def upload_scan(
     principal: Principal = Depends(authorize("upload", upload=True)),
     idempotency: str | None = Depends(idempotency_key),
 ):
+    # fair share, before the scan is received: the clinic's queue has room
+    await run_in_threadpool(JobService(session, principal.tenant_id).ensure_capacity, settings.tenant_max_jobs)
     upload = await receive_upload(request.headers, request.stream(), store, settings.max_upload_bytes, file_format)
     try:
         fields = upload.fields
@@ -120,16 +122,20 @@ async def upload_scan(
         # received file is discarded below, on any failure)
         started, outcome = time.perf_counter(), "runner_unavailable"
         try:
-            placement = await runner.run_in_worker(
-                validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
-                settings.max_scan_faces, timeout=settings.validation_timeout_s
-            )
+            async with request.app.state.check_gate.slot(principal.tenant_id):  # fair share of the check pool
+                placement = await runner.run_in_worker(
+                    validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
+                    settings.max_scan_faces, timeout=settings.validation_timeout_s
+                )
             outcome = "accepted"
         except asyncio.TimeoutError as exc:
             outcome = "check_timeout"
             raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
         except FitFailure as failure:
             outcome = failure.reason.value
+            raise
+        except TooManyRequests:
+            outcome = "too_many_checks"
             raise
         finally:
             request.app.state.metrics.check_seconds.labels(outcome).observe(time.perf_counter() - started)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from app.geometry.record import MAX_CONTROL_MM, MAX_NET
 
@@ -141,27 +141,56 @@ class MeasurementsOut(BaseModel):
 
 class Health(BaseModel):
     status: str
-    database: str | None = None
-    revision: str | None = None
+    database: str | None = Field(None, description="the database kind (an operator key only)")
+    revision: str | None = Field(None, description="the migration revision (an operator key only)")
+
+
+class UsageOut(BaseModel):
+    jobs: dict[str, int] = Field(description="your clinic's jobs by status")
+    limits: dict[str, float] = Field(description="the fair-share limits on your clinic: max_active_jobs (queued or "
+                                     "running), max_concurrent_checks, uploads_per_minute, requests_per_minute "
+                                     "(0: none), max_upload_bytes, max_json_bytes")
+
+
+#: the most rows of a measured tension-strain table (a tensile tester's curve resampled
+#: every 1% of strain up to 200% has 200; more says nothing more about the fabric)
+MAX_FABRIC_ROWS = 200
+FabricRow = Annotated[list[Annotated[float, Field(ge=0, le=1000)]], Field(min_length=2, max_length=2)]
 
 
 class FabricIn(BaseModel):
-    stiffness_n_per_cm: float | None = Field(None, description="linear fabric: tension per unit width per unit strain, N/cm")
-    max_strain: float = Field(1.0, description="linear fabric: the largest strain it may be designed at")
-    table: list[list[float]] | None = Field(None, description="measured fabric: [[strain, tension N/cm], ...], strictly increasing")
+    """A fabric: linear (stiffness_n_per_cm, max_strain) or a measured table - one of the two."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    stiffness_n_per_cm: float | None = Field(None, gt=0, le=1000,
+                                             description="linear fabric: tension per unit width per unit strain, N/cm")
+    max_strain: float = Field(1.0, gt=0, le=5, description="linear fabric: the largest strain it may be designed at")
+    table: list[FabricRow] | None = Field(
+        None, min_length=2, max_length=MAX_FABRIC_ROWS,
+        description=f"measured fabric: [[strain, tension N/cm], ...], strictly increasing; 2-{MAX_FABRIC_ROWS} rows")
+
+    @model_validator(mode="after")
+    def one_fabric(self):
+        if self.table is not None and self.stiffness_n_per_cm is not None:
+            raise ValueError("give the fabric as stiffness_n_per_cm or as a table, not both")
+        if self.table is None and self.stiffness_n_per_cm is None:
+            raise ValueError("give the fabric as stiffness_n_per_cm or as a tension-strain table")
+        return self
 
 
 class DesignRequest(BaseModel):
     """A stocking design: a class (graded by the gradient table) or explicit targets."""
 
-    model_config = ConfigDict(extra="forbid")
-    standard: str = Field("RAL", description="RAL (RAL-GZ 387), BS (BS 6612) or AFNOR (NF G30-102)")
-    compression_class: str | None = Field("II", description="e.g. I, II, III, IV (RAL); 1-3 (BS); 1-4 (AFNOR)")
-    targets_mmHg: dict[str, float] | None = Field(None, description="explicit mean pressures at B, B1, C, D; override the class")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    standard: str = Field("RAL", max_length=16, description="RAL (RAL-GZ 387), BS (BS 6612) or AFNOR (NF G30-102)")
+    compression_class: str | None = Field("II", max_length=8, description="e.g. I, II, III, IV (RAL); 1-3 (BS); 1-4 (AFNOR)")
+    targets_mmHg: dict[Literal["B", "B1", "C", "D"], Annotated[float, Field(gt=0, le=100)]] | None = Field(
+        None, description="explicit mean pressures (0-100 mmHg) at B, B1, C, D; override the class")
     fabric: FabricIn
-    hot_spot_limit_mmHg: float = Field(60.0, description="local pressure above this is reported as a hot spot")
-    step_mm: float = Field(5.0, description="knitting specification every step_mm from B to D (and at the landmarks)")
-    resolution_mm: float = Field(1.0, description="resolution of the relaxed circumferences L0")
+    hot_spot_limit_mmHg: float = Field(60.0, gt=0, le=300, description="local pressure above this is reported as a hot spot")
+    step_mm: float = Field(5.0, ge=1, le=50, description="knitting specification every step_mm (1-50) from B to D "
+                           "(and at the landmarks)")
+    resolution_mm: float = Field(1.0, ge=0.01, le=10, description="resolution of the relaxed circumferences L0 (0.01-10 mm)")
 
 
 class DesignOut(BaseModel):
@@ -235,8 +264,9 @@ class PopulationOut(BaseModel):
 
 class PopulationRefit(BaseModel):
     record_id: str = Field(description="a record of the population that is not an lsq record on the grid")
-    job_id: str = Field(description="the fit job refitting it in mode lsq on its stored scan")
-    status: str = Field(description="queued or running")
+    job_id: str | None = Field(description="the fit job refitting it in mode lsq on its stored scan; null while it "
+                               "waits for room in the clinic's job queue (CALF_TENANT_MAX_JOBS)")
+    status: str = Field(description="queued, running, or waiting (no job yet: queued by a later request)")
     links: dict[str, str]
 
 

@@ -2,8 +2,8 @@
 only library, three.js, is vendored under app/web/vendor, so nothing comes from a CDN:
 clinics run the service on closed networks and the data is health data).
 
-Every response of the service (but the interactive API docs) carries a strict
-Content-Security-Policy: scripts,
+Every response of the service (but the interactive API docs, off unless CALF_API_DOCS)
+carries a strict Content-Security-Policy: scripts,
 styles, images and connections from this origin only (no inline script, no eval, no
 third party), no plugins, no framing; WebGL needs nothing more.
 """
@@ -47,8 +47,14 @@ def static_files() -> StaticFiles:
     return StaticFiles(directory=WEB_DIR)
 
 
+#: responses that may carry health data (records, scans' points, designs, jobs) or the
+#: service's state are never stored by a browser or a proxy
+NO_STORE_PREFIXES = ("/api/", "/metrics", "/readyz")
+
+
 class SecurityHeadersMiddleware:
-    """Adds :data:`SECURITY_HEADERS` to every HTTP response (pure ASGI)."""
+    """Adds :data:`SECURITY_HEADERS` to every HTTP response, and ``Cache-Control:
+    no-store`` to those under :data:`NO_STORE_PREFIXES` (pure ASGI)."""
 
     def __init__(self, app):
         self.app = app
@@ -57,11 +63,13 @@ class SecurityHeadersMiddleware:
         if scope["type"] != "http" or scope.get("path", "").startswith(INTERACTIVE_DOCS):
             return await self.app(scope, receive, send)
 
+        added = SECURITY_HEADERS + ([(b"cache-control", b"no-store")] if scope.get("path", "").startswith(NO_STORE_PREFIXES) else [])
+
         async def send_with_headers(message):
             if message["type"] == "http.response.start":
-                names = {name for name, _ in SECURITY_HEADERS}
+                names = {name for name, _ in added}
                 kept = [(k, v) for k, v in message.get("headers", []) if k.lower() not in names]
-                message = {**message, "headers": [*kept, *SECURITY_HEADERS]}
+                message = {**message, "headers": [*kept, *added]}
             await send(message)
 
         await self.app(scope, receive, send_with_headers)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from datetime import datetime
 
 from sqlalchemy import and_, delete, func, or_, select, text, update
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, aliased
 
 from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, Tenant, utcnow
 
@@ -120,9 +120,10 @@ class JobRepository(_Owned):
                                            placement=placement, status=JOB_QUEUED))
 
     def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None) -> Job | None:
-        """Atomically lease the oldest claimable job (or the job ``job_id``) to ``owner``
+        """Atomically lease the next claimable job (or the job ``job_id``) to ``owner``
         and return it: a queued job, or a running one whose lease has expired (its
-        runner died).
+        runner died).  Next: the oldest job of the tenant with the fewest live fits
+        running (app.services.fair_share).
 
         PostgreSQL: ``FOR UPDATE SKIP LOCKED`` lets several runners claim concurrently;
         SQLite serializes writers, and the conditional UPDATE re-checks the condition.
@@ -131,7 +132,12 @@ class JobRepository(_Owned):
         # a running job without a lease was left by a runner from before leases: expired
         lapsed = or_(Job.lease_expires_at.is_(None), Job.lease_expires_at < now)
         claimable = or_(Job.status == JOB_QUEUED, and_(Job.status == JOB_RUNNING, lapsed))
-        query = select(Job).where(claimable).order_by(Job.created_at, Job.id).limit(1)
+        # fair share: the tenant with the fewest fits running goes first, then the oldest job
+        other = aliased(Job)
+        running = (select(func.count()).select_from(other)
+                   .where(other.tenant_id == Job.tenant_id, other.status == JOB_RUNNING, other.lease_expires_at >= now)
+                   .scalar_subquery())
+        query = select(Job).where(claimable).order_by(running, Job.created_at, Job.id).limit(1)
         if job_id is not None:
             query = query.where(Job.id == job_id)
         if self.session.bind.dialect.name == "postgresql":
@@ -151,6 +157,11 @@ class JobRepository(_Owned):
         self.session.flush()
         self.session.refresh(job)
         return job
+
+    def count_active(self) -> int:
+        """Jobs queued or running (the tenant's, or every tenant's for the system view)."""
+        query = self._scoped(select(func.count()).select_from(Job).where(Job.status.in_((JOB_QUEUED, JOB_RUNNING))))
+        return self.session.scalar(query) or 0
 
     def of_scans(self, scan_ids: list[str]) -> list[Job]:
         """The jobs of these scans, newest first."""
@@ -199,7 +210,8 @@ class JobRepository(_Owned):
         return result.rowcount == 1
 
     def count_by_status(self) -> dict[str, int]:
-        rows = self.session.execute(select(Job.status, func.count()).group_by(Job.status)).all()
+        """Jobs by status: the tenant's, or every tenant's for the system view."""
+        rows = self.session.execute(self._scoped(select(Job.status, func.count())).group_by(Job.status)).all()
         return {status: count for status, count in rows}
 
     def count(self) -> int:

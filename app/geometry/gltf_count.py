@@ -9,8 +9,10 @@ TRANSLATION/ROTATION/SCALE accessors.  A scan reader that flattens the scene
 (trimesh's ``Scene.dump``) allocates every instance: a 1.3 MB file that instances a
 mesh 400 times becomes 5 GB.  :func:`gltf_scene_size` counts what the flattening would
 produce - per node, its own mesh's counts times its instances, plus its children's,
-memoised so that a DAG of depth d and fan-out k costs O(nodes + edges), not k^d - so
-that the reader can refuse a scene past its limits before anything is expanded.
+counted so that a DAG of depth d and fan-out k costs O(nodes + edges), not k^d - so
+that the reader can refuse a scene past its limits before anything is expanded.  A
+scanner writes each mesh once; a scene that instances one mesh more than
+:data:`MAX_MESH_INSTANCES` times is refused whatever its size (it is copies, not a scan).
 
 Counts: points = POSITION accessor counts; triangles = index count / 3 for mode 4
 (TRIANGLES, the default), count - 2 for strips (5) and fans (6), by POSITION count when
@@ -27,16 +29,19 @@ from app.geometry.errors import FailureReason, FitFailure
 
 GLB_MAGIC = b"glTF"
 JSON_CHUNK = 0x4E4F534A  # "JSON"
-#: a node graph deeper than this is refused (a real scan's is 1-5 deep)
-MAX_DEPTH = 64
+#: a scan stores each of its meshes once: a scene that shows one mesh more often than
+#: this is a scene of copies, not a scan (refused before it is expanded)
+MAX_MESH_INSTANCES = 4
 
 
 @dataclass(frozen=True)
 class SceneSize:
-    """What the default scene expands to: ``points`` (vertices) and ``triangles``."""
+    """What the default scene expands to: ``points`` (vertices), ``triangles``, and
+    ``max_instances``, the most times one mesh appears in it."""
 
     points: int
     triangles: int
+    max_instances: int = 1
 
 
 def _unreadable(detail: str) -> FitFailure:
@@ -91,53 +96,73 @@ def _mesh_size(mesh: dict, accessors: list) -> tuple[int, int]:
 
 def gltf_scene_size(document: dict) -> SceneSize:
     """Points and triangles of the default scene (or of every root node when the file
-    names no scene), every instance counted; see the module docstring."""
+    names no scene), every instance counted; see the module docstring.
+
+    The instances of each node are the number of paths to it from the scene's roots
+    (times each parent's listing of it), counted in topological order of the node DAG
+    (Kahn's algorithm: O(nodes + edges)); a node graph with a cycle is unreadable."""
     nodes = document.get("nodes") or []
     meshes = document.get("meshes") or []
     accessors = document.get("accessors") or []
     if not all(isinstance(x, list) for x in (nodes, meshes, accessors)):
         raise _unreadable("the glTF's nodes, meshes and accessors must be lists")
-    mesh_sizes: dict[int, tuple[int, int]] = {}
-    node_sizes: dict[int, tuple[int, int]] = {}
 
-    def node_size(index, depth: int, path: frozenset) -> tuple[int, int]:
+    def node_index(index) -> int:
         if not isinstance(index, int) or not 0 <= index < len(nodes) or not isinstance(nodes[index], dict):
             raise _unreadable("the glTF scene names a node it does not have")
-        if index in node_sizes:
-            return node_sizes[index]
-        if index in path or depth > MAX_DEPTH:
-            raise _unreadable(f"the glTF node graph has a cycle or is deeper than {MAX_DEPTH} levels")
-        node = nodes[index]
-        points = triangles = 0
-        if "mesh" in node:
-            m = node["mesh"]
-            if not isinstance(m, int) or not 0 <= m < len(meshes) or not isinstance(meshes[m], dict):
-                raise _unreadable("a glTF node names a mesh the file does not have")
-            if m not in mesh_sizes:
-                mesh_sizes[m] = _mesh_size(meshes[m], accessors)
-            copies = 1
-            instancing = (node.get("extensions") or {}).get("EXT_mesh_gpu_instancing")
-            if isinstance(instancing, dict):
-                attributes = instancing.get("attributes") or {}
-                counts = [_count(accessors, a) for a in attributes.values()]
-                copies = max(counts) if counts else 1
-            points, triangles = mesh_sizes[m][0] * copies, mesh_sizes[m][1] * copies
-        for child in node.get("children") or []:
-            p, t = node_size(child, depth + 1, path | {index})
-            points, triangles = points + p, triangles + t
-        node_sizes[index] = (points, triangles)
-        return points, triangles
+        return index
 
+    children = [[node_index(c) for c in (node.get("children") or [])] if isinstance(node, dict) else [] for node in nodes]
     scenes = document.get("scenes")
     if isinstance(scenes, list) and scenes:
         chosen = document.get("scene", 0)
         scene = scenes[chosen] if isinstance(chosen, int) and 0 <= chosen < len(scenes) else scenes[0]
-        roots = (scene or {}).get("nodes") or [] if isinstance(scene, dict) else []
+        roots = [node_index(r) for r in ((scene.get("nodes") or []) if isinstance(scene, dict) else [])]
     else:
-        children = {c for node in nodes if isinstance(node, dict) for c in (node.get("children") or [])}
-        roots = [i for i in range(len(nodes)) if i not in children]
-    points = triangles = 0
+        listed = {c for kids in children for c in kids}
+        roots = [i for i in range(len(nodes)) if i not in listed]
+    # the nodes reachable from the roots, and how many edges lead into each
+    reachable, stack = set(roots), list(roots)
+    while stack:
+        for child in children[stack.pop()]:
+            if child not in reachable:
+                reachable.add(child)
+                stack.append(child)
+    incoming = dict.fromkeys(reachable, 0)
+    for index in reachable:
+        for child in children[index]:
+            incoming[child] += 1
+    paths = dict.fromkeys(reachable, 0)
     for root in roots:
-        p, t = node_size(root, 0, frozenset())
-        points, triangles = points + p, triangles + t
-    return SceneSize(points, triangles)
+        paths[root] += 1
+    ready = [i for i in reachable if incoming[i] == 0]
+    done = 0
+    while ready:
+        index = ready.pop()
+        done += 1
+        for child in children[index]:
+            paths[child] += paths[index]
+            incoming[child] -= 1
+            if incoming[child] == 0:
+                ready.append(child)
+    if done != len(reachable):
+        raise _unreadable("the glTF node graph has a cycle")
+    mesh_instances: dict[int, int] = {}
+    for index in reachable:
+        node = nodes[index]
+        if "mesh" not in node:
+            continue
+        m = node["mesh"]
+        if not isinstance(m, int) or not 0 <= m < len(meshes) or not isinstance(meshes[m], dict):
+            raise _unreadable("a glTF node names a mesh the file does not have")
+        copies = 1
+        instancing = (node.get("extensions") or {}).get("EXT_mesh_gpu_instancing")
+        if isinstance(instancing, dict):
+            counts = [_count(accessors, a) for a in (instancing.get("attributes") or {}).values()]
+            copies = max(counts) if counts else 1
+        mesh_instances[m] = mesh_instances.get(m, 0) + paths[index] * copies
+    points = triangles = 0
+    for m, instances in mesh_instances.items():
+        p, t = _mesh_size(meshes[m], accessors)
+        points, triangles = points + p * instances, triangles + t * instances
+    return SceneSize(points, triangles, max(mesh_instances.values(), default=0))

@@ -23,7 +23,7 @@ import numpy as np
 import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.gltf_count import gltf_json, gltf_scene_size
+from app.geometry.gltf_count import MAX_MESH_INSTANCES, gltf_json, gltf_scene_size
 from app.geometry.scan_integrity import binary_stl_count, check_ply_integrity, check_stl_integrity
 
 #: file extensions (lower case, no dot) the reader accepts
@@ -285,6 +285,10 @@ def load_scan(
         # a scene instancing one mesh N times is counted from its JSON before trimesh
         # expands it (app.geometry.gltf_count)
         size = gltf_scene_size(gltf_json(data, fmt))
+        if size.max_instances > MAX_MESH_INSTANCES:
+            raise FitFailure(FailureReason.SCAN_TOO_LARGE, f"the file's scene shows one mesh {size.max_instances} times "
+                             f"({size.triangles} triangles once expanded); a scan holds each of its meshes once "
+                             f"(at most {MAX_MESH_INSTANCES}): export the scan itself, not a scene of copies")
         if max_faces is not None:
             _check_size("triangles (every instance of the scene counted)", size.triangles, max_faces)
         if max_points is not None:

@@ -32,6 +32,7 @@ import functools
 import logging
 import multiprocessing
 import os
+import resource
 import signal
 import time
 from collections.abc import Callable
@@ -55,17 +56,28 @@ if TYPE_CHECKING:
 log = logging.getLogger("calf_nurbs.runner")
 
 
-class _Pool:
-    """A process pool that is replaced when one of its processes dies."""
+def limit_worker_memory(limit_bytes: int) -> None:
+    """Pool initializer: cap the worker's address space (RLIMIT_AS), so that a scan that
+    needs more memory than the limit fails in its own worker with MemoryError (the
+    fitting functions turn it into ``scan_too_large``) instead of taking the machine."""
+    if limit_bytes > 0:
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
 
-    def __init__(self, name: str, workers: int):
+
+class _Pool:
+    """A process pool that is replaced when one of its processes dies; each worker's
+    address space is capped at ``memory_bytes`` (0: no cap)."""
+
+    def __init__(self, name: str, workers: int, memory_bytes: int = 0):
         self.name = name
         self.workers = workers
+        self.memory_bytes = memory_bytes
         self.generation = 0
         self.executor: ProcessPoolExecutor | None = None
 
     def start(self) -> None:
-        self.executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"))
+        self.executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
+                                            initializer=limit_worker_memory, initargs=(self.memory_bytes,))
 
     def replace(self, generation: int) -> None:
         """Replace the pool if it is still the ``generation`` that broke."""
@@ -102,7 +114,7 @@ class _Pool:
 class EmbeddedRunner:
     def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True,
                  metrics: Metrics | None = None, lease_s: float = 60.0, max_attempts: int = 3,
-                 enqueue: Callable[[str], None] | None = None):
+                 enqueue: Callable[[str], None] | None = None, worker_memory_bytes: int = 0):
         self.sessions = sessions
         self.store = store
         self.workers = workers
@@ -117,8 +129,8 @@ class EmbeddedRunner:
         if enqueue is not None:
             self.run_jobs = False
         self.owner = lifecycle.owner_name()
-        self.check_pool = _Pool("check", workers)
-        self.fit_pool = _Pool("fit", workers)
+        self.check_pool = _Pool("check", workers, worker_memory_bytes)
+        self.fit_pool = _Pool("fit", workers, worker_memory_bytes)
         self._wakeup: asyncio.Event | None = None
         self._dispatcher: asyncio.Task | None = None
         self._running: dict[str, asyncio.Task] = {}

@@ -6,6 +6,10 @@ picklable values), so CPU-bound fitting never blocks the web server's event loop
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import ctypes.util
+import gc
 import time
 
 from app.geometry.errors import FailureReason, FitFailure
@@ -14,6 +18,8 @@ from app.geometry.lsq import LsqGrid
 from app.geometry.record import record_from_fit
 from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
 
+_LIBC_NAME = ctypes.util.find_library("c")
+_LIBC = ctypes.CDLL(_LIBC_NAME) if _LIBC_NAME and hasattr(ctypes.CDLL(_LIBC_NAME), "malloc_trim") else None
 DEFAULT_POINTS = 15
 DEFAULT_GRID = "7x15"
 #: surface modes an upload may ask for ("paper_stacked" is a study of the paper's text,
@@ -60,12 +66,32 @@ def fit_options(options: dict) -> FitOptions:
                       mode=options.get("mode", "paper"), grid=options.get("grid", DEFAULT_GRID))
 
 
+@contextlib.contextmanager
+def worker_task():
+    """Around a worker's task: a MemoryError (the worker's RLIMIT_AS,
+    app.jobs.runner.limit_worker_memory) becomes ``scan_too_large``, and the memory the
+    task freed is handed back to the system (glibc keeps freed arenas otherwise: an idle
+    worker held 1.2 GB after a large scan)."""
+    try:
+        yield
+    except MemoryError:
+        raise FitFailure(FailureReason.SCAN_TOO_LARGE, "the scan needs more memory than this service gives one scan "
+                         "(CALF_WORKER_MEMORY_MB): decimate the mesh or subsample the cloud (1-2 mm spacing is "
+                         "plenty) and upload it again") from None
+    finally:
+        gc.collect()
+        if _LIBC is not None:
+            _LIBC.malloc_trim(0)
+
+
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
                        max_faces: int | None = None) -> dict:
     """Worker: read the scan and place its calf; raises FitFailure with the reason
     (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement, JSON."""
-    scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points, max_faces=max_faces)
-    return check_scan(scan, fit_options(options))
+    with worker_task():
+        scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points,
+                         max_faces=max_faces)
+        return check_scan(scan, fit_options(options))
 
 
 def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None) -> dict:
@@ -75,10 +101,11 @@ def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | 
     fit then skips locating the calf again.
     """
     started = time.perf_counter()
-    scan = load_scan(path, file_type=file_format, units=options.get("units"))
-    loaded = time.perf_counter()
-    result = fit_scan(scan, fit_options(options), placement)
-    seconds = time.perf_counter() - started
-    record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
+    with worker_task():
+        scan = load_scan(path, file_type=file_format, units=options.get("units"))
+        loaded = time.perf_counter()
+        result = fit_scan(scan, fit_options(options), placement)
+        seconds = time.perf_counter() - started
+        record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
     stages = {"load": loaded - started, **{k: float(v) for k, v in result.timings.items()}, "total": seconds}
     return {"record": record, "stage_seconds": stages}

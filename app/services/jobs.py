@@ -11,6 +11,7 @@ from app.db.models import Job, Scan
 from app.db.repositories import JobRepository, ScanRepository
 from app.errors import FAILURE_TITLES, PROBLEM_TYPE_PREFIX, NotFound
 from app.geometry.errors import FailureReason
+from app.services.fair_share import too_many_jobs
 from app.services.storage import ScanStore
 from app.services.uploads import ReceivedUpload
 
@@ -56,6 +57,26 @@ class JobService:
             before_commit(job, scan, reused)
         self.session.commit()
         return job, scan, reused
+
+    def ensure_capacity(self, limit: int) -> None:
+        """429 ``too_many_jobs`` when the tenant has ``limit`` jobs queued or running."""
+        if self.jobs.count_active() >= limit:
+            raise too_many_jobs(limit)
+
+    def usage(self, settings) -> dict:
+        """The tenant's jobs by status and the bounds of app.services.fair_share."""
+        counts = self.jobs.count_by_status()
+        return {
+            "jobs": {status: counts.get(status, 0) for status in ("queued", "running", "succeeded", "failed")},
+            "limits": {
+                "max_active_jobs": settings.tenant_max_jobs,
+                "max_concurrent_checks": settings.checks_per_tenant,
+                "uploads_per_minute": settings.upload_rate_limit,
+                "requests_per_minute": settings.rate_limit,
+                "max_upload_bytes": settings.max_upload_bytes,
+                "max_json_bytes": settings.max_json_bytes,
+            },
+        }
 
     def get(self, job_id: str) -> tuple[Job, Scan]:
         job = self.jobs.get(job_id)

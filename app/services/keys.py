@@ -24,8 +24,11 @@ from app.db.repositories import ApiKeyRepository, TenantRepository
 from app.errors import BadRequest, NotFound, Unauthorized
 
 #: what a key may do: upload scans (and import / delete records), read records, jobs
-#: and designs, make designs; admin may do everything
-SCOPES = ("upload", "read", "design", "admin")
+#: and designs, make designs; admin may do everything a clinic may.  ``operator`` is the
+#: service operator's, not a clinic's: the whole service's metrics and readiness details
+#: (every clinic's job counts); a clinic's admin key does not hold it
+SCOPES = ("upload", "read", "design", "admin", "operator")
+CLINIC_SCOPES = ("upload", "read", "design")
 KEY_PATTERN = re.compile(r"^(cnk_[0-9a-f]{8})_([A-Za-z0-9_-]{43})$")
 #: last_used_at is written at most this often per key (a write per request would make
 #: every read a database write)
@@ -42,7 +45,7 @@ class Principal:
     scopes: frozenset
 
     def allows(self, scope: str) -> bool:
-        return "admin" in self.scopes or scope in self.scopes
+        return scope in self.scopes or ("admin" in self.scopes and scope in CLINIC_SCOPES + ("admin",))
 
 
 #: the principal of a service running with CALF_AUTH=off (local use only)

@@ -34,6 +34,8 @@ MIN_RECORDS, MAX_RECORDS = 2, 200
 #: seconds a client is asked to wait before asking again while refits run (a fit takes
 #: about a second on one core; the answer is the same whenever it asks)
 REFIT_RETRY_S = 2
+#: the status of a refit that waits for room in the clinic's job queue (no job yet)
+WAITING = "waiting"
 
 
 @dataclass(frozen=True)
@@ -50,7 +52,7 @@ class Refitting:
         return {
             "status": "refitting",
             "grid": self.grid,
-            "refits": [{"record_id": r, "job_id": j, "status": status, "links": {"job": f"/api/v1/jobs/{j}"}}
+            "refits": [{"record_id": r, "job_id": j, "status": status, "links": {"job": f"/api/v1/jobs/{j}"} if j else {}}
                        for r, j, status in self.refits],
             "detail": f"{len(self.refits)} of the records are being refitted in mode lsq on the {self.grid} grid "
                       "from their stored scans; make the same request again when their jobs have succeeded",
@@ -59,11 +61,14 @@ class Refitting:
 
 
 class PopulationService:
-    def __init__(self, session, tenant_id: str, store):
+    def __init__(self, session, tenant_id: str, store, max_jobs: int = 10):
         self.records = RecordService(session, tenant_id)
         self.scans = ScanRepository(session, tenant_id)
         self.jobs = JobRepository(session, tenant_id)
         self.store = store
+        #: the clinic's bound on queued and running jobs (app.services.fair_share): refits
+        #: past it wait for a later request
+        self.max_jobs = max_jobs
 
     def create(self, record_ids: list[str], grid: str | None = None) -> dict | Refitting:
         """The population of ``record_ids`` (its view, the average stored as a record), or
@@ -78,7 +83,8 @@ class PopulationService:
         target = self._grid(parsed, grid)
         off_grid = [(row, record) for row, record in zip(rows, parsed) if not _on_grid(record, target)]
         refitted, new_jobs = self._refits(off_grid, target)
-        pending = [(row.id, job.id, job.status) for row, job in refitted.items() if isinstance(job, Job)]
+        pending = [(row.id, job.id, job.status) if isinstance(job, Job) else (row.id, None, WAITING)
+                   for row, job in refitted.items() if isinstance(job, Job) or job is None]
         if pending:
             return Refitting(str(target), pending, [job.id for job in new_jobs])
         nets, mirrored, tape = [], [], {name: [] for name in LANDMARK_NAMES}
@@ -130,10 +136,12 @@ class PopulationService:
 
     def _refits(self, off_grid: list, grid: LsqGrid) -> tuple[dict, list[Job]]:
         """For each (row, record) off the grid: the record row of its succeeded lsq refit,
-        or its refit job still to run; and the jobs queued here (a record without one)."""
+        its refit job still to run, or None when the clinic's queue has no room for it yet;
+        and the jobs queued here (a record without one)."""
         scans = {row.id: self.scans.get(row.scan_id) if row.scan_id else None for row, _ in off_grid}
         jobs = self.jobs.of_scans([scan.id for scan in scans.values() if scan is not None])
         out, new_jobs = {}, []
+        room = self.max_jobs - self.jobs.count_active()
         for row, record in off_grid:
             scan = scans[row.id]
             if scan is None or not self.store.exists(scan.sha256):
@@ -142,11 +150,11 @@ class PopulationService:
                     "(an imported record): leave it out, or upload its scan with mode=lsq", code="not_lsq")
             options = parse_options(record.side, (record.scan or {}).get("units"), None, "lsq", str(grid))
             refit = self._refit_of(row, options, [j for j in jobs if j.scan_id == scan.id])
-            if refit is None:
+            if refit is None and room > len(new_jobs):
                 refit = self.jobs.add(scan.id, options, None)
                 new_jobs.append(refit)
                 jobs.insert(0, refit)  # two records of one scan share its refit
-            out[row] = refit
+            out[row] = refit  # None: waits for room in the clinic's queue
         return out, new_jobs
 
     def _refit_of(self, row, options: dict, jobs: list[Job]):

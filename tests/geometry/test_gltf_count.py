@@ -36,6 +36,14 @@ def test_a_small_file_that_expands_past_the_limit_is_refused_before_reading(leg)
     assert f"{400 * len(leg.faces)} triangles" in caught.value.detail
 
 
+def test_a_scene_of_copies_under_the_triangle_limit_is_refused_too(leg):
+    data = instanced_glb(140, leg)  # 3.8 million triangles: under the limit, still 140 copies
+    with pytest.raises(FitFailure) as caught:
+        load_scan(data, file_type="glb", max_points=4_000_000, max_faces=4_000_000)
+    assert caught.value.reason.value == "scan_too_large" and "140 times" in caught.value.detail
+    assert len(load_scan(instanced_glb(2, leg), file_type="glb", max_points=4_000_000, max_faces=4_000_000).points_mm)
+
+
 def _document(nodes: list, scene_nodes: list) -> dict:
     return {"asset": {"version": "2.0"}, "accessors": [{"count": 300}, {"count": 900}],
             "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
@@ -46,7 +54,7 @@ def test_a_shared_subtree_counts_once_per_parent_and_costs_no_more_to_count():
     # 30 levels, each node naming the next twice: 2^30 instances of one mesh
     nodes = [{"children": [i + 1, i + 1]} for i in range(30)] + [{"mesh": 0}]
     size = gltf_scene_size(_document(nodes, [0]))
-    assert size.triangles == 2 ** 30 * 300 and size.points == 2 ** 30 * 300
+    assert size.triangles == 2 ** 30 * 300 and size.points == 2 ** 30 * 300 and size.max_instances == 2 ** 30
 
 
 def test_gpu_instancing_multiplies_the_mesh():
@@ -54,8 +62,8 @@ def test_gpu_instancing_multiplies_the_mesh():
     assert gltf_scene_size(document).triangles == 900 * 300
 
 
-@pytest.mark.parametrize("nodes, words", [([{"children": [0]}], "cycle"), ([{"mesh": 5}], "mesh"),
-                                          ([{"children": [9]}], "node")])
+@pytest.mark.parametrize("nodes, words", [([{"children": [1]}, {"children": [0]}], "cycle"),
+                                          ([{"mesh": 5}], "mesh"), ([{"children": [9]}], "node")])
 def test_broken_node_graphs_are_unreadable(nodes, words):
     with pytest.raises(FitFailure) as caught:
         gltf_scene_size(_document(nodes, [0]))

@@ -1,0 +1,61 @@
+"""Fair share of the machine between clinics: no clinic can hold the service from others.
+
+Three bounds, each per tenant (a clinic):
+
+- **Jobs** (:meth:`JobBudget.check`): at most CALF_TENANT_MAX_JOBS of a tenant's jobs
+  queued or running at once - uploads' fits and populations' refits alike.  Past it the
+  upload (or the population's extra refits) is refused with 429 ``too_many_jobs`` and
+  Retry-After, before the scan is received or checked.
+- **Upload checks** (:class:`CheckGate`): at most CALF_TENANT_MAX_CHECKS of a tenant's
+  upload checks run in the check pool at once (default: all workers but one, at least
+  one), so another clinic's check always finds a worker free of the first clinic's;
+  a tenant's further checks wait for its own slot (costing nothing: the scan is on disk),
+  and after CALF_VALIDATION_TIMEOUT_S are refused with 429 ``too_many_checks``.
+- **Fits**: the embedded runner claims the oldest queued job of the tenant with the
+  fewest running fits (:meth:`app.db.repositories.JobRepository.claim_next`), so a
+  clinic that uploads while another's queue is full waits for one fit to end, not for
+  that queue.  (Dramatiq workers take messages in the broker's order; the job bound
+  above bounds what one clinic can put ahead of another there.)
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+from collections import defaultdict
+
+from app.errors import TooManyRequests
+
+#: what a refused clinic is told to wait: about one fit
+RETRY_AFTER_S = 5
+
+
+def too_many_jobs(limit: int) -> TooManyRequests:
+    return TooManyRequests(
+        f"your clinic already has {limit} scans queued or being fitted, the most one clinic may have at once; "
+        f"send the next when one has finished (about {RETRY_AFTER_S} s)", retry_after_s=RETRY_AFTER_S,
+        code="too_many_jobs", extra={"limit": limit})
+
+
+class CheckGate:
+    """Per-tenant slots of the upload check pool (module docstring)."""
+
+    def __init__(self, per_tenant: int, wait_s: float):
+        self.per_tenant = per_tenant
+        self.wait_s = wait_s
+        self._slots: dict[str, asyncio.Semaphore] = defaultdict(lambda: asyncio.Semaphore(self.per_tenant))
+
+    @contextlib.asynccontextmanager
+    async def slot(self, tenant_id: str):
+        semaphore = self._slots[tenant_id]
+        try:
+            await asyncio.wait_for(semaphore.acquire(), self.wait_s)
+        except asyncio.TimeoutError:
+            raise TooManyRequests(
+                f"your clinic's uploads have waited {self.wait_s:g} s for a check: {self.per_tenant} of them may be "
+                "checked at once; send fewer at a time", retry_after_s=RETRY_AFTER_S, code="too_many_checks",
+                extra={"limit": self.per_tenant}) from None
+        try:
+            yield
+        finally:
+            semaphore.release()
