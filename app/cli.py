@@ -195,6 +195,7 @@ def _cmd_worker(args: argparse.Namespace) -> int:
             lease_s=settings.job_lease_s,
             max_attempts=settings.job_max_attempts,
             worker_memory_bytes=settings.worker_memory_bytes,
+            fits_per_tenant=settings.fits_per_tenant,
         )
         await runner.start()
         print(json.dumps({"worker": "started", "processes": settings.workers}), flush=True)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from contextlib import asynccontextmanager
 
@@ -26,6 +27,7 @@ log = logging.getLogger("calf_nurbs")
 #: at start-up, temporary uploads of dead processes of this host are removed, and any
 #: older than this (another host's process cannot be asked; an upload takes minutes)
 TEMP_MAX_AGE_S = 3600.0
+TEMP_SWEEP_S = 600.0
 
 DESCRIPTION = """Turns 3D scans of legs into compact, exact NURBS models of the calf
 (Li et al., *Fast NURBS-based parametric modeling of human calves*), and serves the
@@ -37,6 +39,20 @@ Upload a scan (`POST /api/v1/scans`), poll the job it returns, then fetch the re
 its surface (STL / GLB / glTF in the scan's own coordinates) and its measurements.
 Every error is an RFC 9457 `application/problem+json` document whose `type` ends in a
 stable code. Lengths are millimetres."""
+
+
+async def _sweep_temp(store: ScanStore) -> None:
+    """Every TEMP_SWEEP_S: the temporary uploads of processes that died since start-up
+    (another API process of this host, killed mid-upload) are removed without waiting
+    for a restart."""
+    while True:
+        await asyncio.sleep(TEMP_SWEEP_S)
+        try:
+            removed = await asyncio.to_thread(store.clean_temp, TEMP_MAX_AGE_S)
+        except OSError:  # the data directory is unavailable for a moment: next round
+            continue
+        if removed:
+            log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)
 
 
 def _broker_send(settings: Settings):
@@ -62,7 +78,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
                                           settings.run_jobs, metrics=app.state.metrics, lease_s=settings.job_lease_s,
                                           max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings),
-                                          worker_memory_bytes=settings.worker_memory_bytes)
+                                          worker_memory_bytes=settings.worker_memory_bytes,
+                                          fits_per_tenant=settings.fits_per_tenant)
         removed = app.state.store.clean_temp(TEMP_MAX_AGE_S)
         if removed:
             log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)
@@ -71,9 +88,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                         "tenant 'default'. Bind to a public address or set CALF_AUTH=required to require keys.",
                         settings.host)
         await app.state.runner.start()
+        sweeper = asyncio.create_task(_sweep_temp(app.state.store), name="calf-temp-sweeper")
         try:
             yield
         finally:
+            sweeper.cancel()
             await app.state.runner.stop()
 
     docs = settings.api_docs  # off by default: see Settings (CALF_API_DOCS)

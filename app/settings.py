@@ -37,8 +37,10 @@ class Settings(BaseSettings):
                          address-space cap of each check and fit worker process (4096;
                          0: none); a scan that needs more is refused (scan_too_large)
     CALF_TENANT_MAX_JOBS one clinic's jobs queued or running at once (10); past it 429
-    CALF_TENANT_MAX_CHECKS
-                         one clinic's upload checks at once (all workers but one, >= 1)
+    CALF_TENANT_MAX_CHECKS / CALF_TENANT_MAX_FITS
+                         one clinic's upload checks / fits at once (default: all workers
+                         but one, at least one - another clinic always finds one free;
+                         with keys off there is one clinic: all workers)
     CALF_BROKER_URL      redis://host:6379/0: fitting jobs go through Dramatiq on Redis and
                          `calf-nurbs worker` runs Dramatiq workers (none: the embedded runner)
     CALF_BROKER_HEARTBEAT_S
@@ -87,6 +89,7 @@ class Settings(BaseSettings):
     tenant_max_jobs: int = Field(10, ge=1)
     worker_memory_mb: float = Field(4096.0, ge=0)
     tenant_max_checks: int | None = Field(None, ge=1)
+    tenant_max_fits: int | None = Field(None, ge=1)
     host: str = "127.0.0.1"
     cors_origins: list[str] = Field(default_factory=list)
     auth: Literal["required", "off"] | None = None
@@ -120,8 +123,17 @@ class Settings(BaseSettings):
         return int(self.worker_memory_mb * 1024 * 1024)
 
     @property
+    def _share(self) -> int:
+        """A clinic's share of the workers: all but one when keys tell clinics apart."""
+        return max(1, self.workers - 1) if self.auth_required else self.workers
+
+    @property
     def checks_per_tenant(self) -> int:
-        return self.tenant_max_checks or max(1, self.workers - 1)
+        return self.tenant_max_checks or self._share
+
+    @property
+    def fits_per_tenant(self) -> int:
+        return self.tenant_max_fits or self._share
 
     @property
     def max_json_bytes(self) -> int:

@@ -2,8 +2,9 @@
 answered 500 (issue 19), sent to a real ``calf-nurbs serve`` on localhost with keys
 required, measuring per request the time to its answer and the extra resident memory
 of the whole server (the API process and its pool workers, sampled every 20 ms),
-then two floods: one clinic's uploads and one clinic's population refits, each while
-another clinic uploads a scan and waits for its record.
+then two floods on a second service with the default rate limits: one clinic's
+uploads (4 threads that ignore Retry-After) and one clinic's populations (a new grid
+each), each while another clinic uploads a scan and waits for its record.
 
     .venv/bin/python benchmarks/hostile.py [REPEATS]
 
@@ -125,6 +126,7 @@ def main(repeats: int = 3) -> dict:
            "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
 
     def new_key(tenant: str, scopes: str) -> str:
+        # in the env of the service the key is for (its data directory)
         made = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", tenant, "--scopes", scopes],
                               env={**os.environ, **env}, capture_output=True, text=True, check=True)
         return made.stdout.strip().splitlines()[-1]
@@ -189,6 +191,21 @@ def main(repeats: int = 3) -> dict:
                 extras.append(rss.extra_mb)
             rows.append({"request": name, "answers": [str(response.status_code)], "median_s": statistics.median(times),
                          "max_s": max(times), "median_extra_rss_mb": statistics.median(extras), "max_extra_rss_mb": max(extras)})
+    finally:
+        stop(server)
+    # the floods on a service with its default rate limits: what bounds a clinic that
+    # ignores Retry-After is the service's limits, not its manners
+    flood_env = {k: v for k, v in env.items() if "RATE" not in k}
+    flood_env["CALF_DATA_DIR"] = str(data_dir / "floods")
+    (data_dir / "floods").mkdir()
+    env = flood_env
+    hostile_key, other_key = new_key("hostile clinic", "upload,read,design"), new_key("other clinic", "upload,read,design")
+    port = free_port()
+    base = f"http://127.0.0.1:{port}"
+    server = start(["serve", "--port", str(port)], flood_env)
+    try:
+        wait_ready(base, server)
+        upload_to_record(base, other_key, 15)  # warm
         floods = flood_runs(base, hostile_key, other_key, repeats, server.pid)
     finally:
         stop(server)

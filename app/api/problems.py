@@ -96,7 +96,8 @@ def install_problem_handlers(app: FastAPI) -> None:
         code = "payload_too_large" if exc.status_code == 413 else phrase.lower().replace(" ", "_").replace("-", "_")
         detail = exc.detail if isinstance(exc.detail, str) else phrase
         if exc.status_code == 400 and detail == "There was an error parsing the body":  # FastAPI's words
-            detail = "the request body cannot be read: it must be JSON in UTF-8"
+            detail = ("the request body cannot be read as JSON: it must be UTF-8 JSON, nested at most a few hundred "
+                      "levels deep")
         headers = dict(exc.headers or {})
         if exc.status_code == 405:
             # every method of the path (Starlette names only the first route's)

@@ -93,7 +93,11 @@ def get_record(record_id: str, session: Session = Depends(get_session), principa
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
              responses={201: {"description": "Created", "headers": {"Location": {"schema": {"type": "string"}}}},
                         **problems(s400="bad_request: the body is not UTF-8 JSON",
-                                   s422="invalid_record: knots, shapes, weights or numbers not valid; invalid_request")})
+                                   s422="invalid_record: knots, shapes, weights or numbers not valid, or not a leg's tube (a ring "
+                                   "under 5 mm in radius or not winding once round its centre, height not rising "
+                                   "along v, under 20 mm long); surface_too_costly: a patch cost (nu - p)(nv - q)"
+                                   "(p + 1)(q + 1) over 50,000, a net over 1,200 mm tall or 300 mm from the axis; "
+                                   "invalid_request", s413="payload_too_large: a body over CALF_MAX_JSON_KB")})
 def import_record(data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
                   session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
     service = RecordService(session, principal.tenant_id)

@@ -73,8 +73,10 @@ UPLOAD_BODY = {
               "headers": {"Location": {"schema": {"type": "string"}, "description": "/api/v1/jobs/{id}"}, **REPLAYED}},
         **IDEMPOTENCY_PROBLEMS,
         **problems(
-            s400="empty_body, bad_request (malformed multipart, no 'file' field)",
-            s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB",
+            s400="empty_body, bad_request (malformed multipart, no 'file' field), truncated_body (a multipart body "
+            "without its closing boundary), invalid_content_length",
+            s413="payload_too_large: more bytes than CALF_MAX_UPLOAD_MB (the declared Content-Length is checked before "
+            "the body is read)",
             s415="unsupported_media_type / unsupported_format",
             s422="the scan cannot be fitted, with the reason: unreadable_file, truncated_file, empty_scan, "
             "non_finite_coordinates, too_few_points, scan_too_large (more points or triangles than "

@@ -119,11 +119,12 @@ class JobRepository(_Owned):
         return _inserted(self.session, Job(tenant_id=self._owner(None), scan_id=scan_id, options=options,
                                            placement=placement, status=JOB_QUEUED))
 
-    def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None) -> Job | None:
+    def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None,
+                   per_tenant: int | None = None) -> Job | None:
         """Atomically lease the next claimable job (or the job ``job_id``) to ``owner``
         and return it: a queued job, or a running one whose lease has expired (its
         runner died).  Next: the oldest job of the tenant with the fewest live fits
-        running (app.services.fair_share).
+        running, of a tenant with fewer than ``per_tenant`` running (app.services.fair_share).
 
         PostgreSQL: ``FOR UPDATE SKIP LOCKED`` lets several runners claim concurrently;
         SQLite serializes writers, and the conditional UPDATE re-checks the condition.
@@ -138,6 +139,8 @@ class JobRepository(_Owned):
                    .where(other.tenant_id == Job.tenant_id, other.status == JOB_RUNNING, other.lease_expires_at >= now)
                    .scalar_subquery())
         query = select(Job).where(claimable).order_by(running, Job.created_at, Job.id).limit(1)
+        if per_tenant is not None:
+            query = query.where(running < per_tenant)
         if job_id is not None:
             query = query.where(Job.id == job_id)
         if self.session.bind.dialect.name == "postgresql":

@@ -57,13 +57,13 @@ def lease_until(lease_s: float) -> datetime:
 
 
 def claim(sessions: sessionmaker[Session], store: ScanStore, owner: str, lease_s: float, max_attempts: int,
-          job_id: str | None = None) -> ClaimedJob | str | None:
+          job_id: str | None = None, per_tenant: int | None = None) -> ClaimedJob | str | None:
     """Lease the oldest claimable job (or ``job_id``) to ``owner``: a ClaimedJob, None
     when there is none (or ``job_id`` is finished or held by a live lease), or
     :data:`EXHAUSTED` when the job had been claimed ``max_attempts`` times already."""
     with sessions() as session, session.begin():
         jobs = JobRepository(session)
-        job = jobs.claim_next(owner, lease_until(lease_s), job_id=job_id)
+        job = jobs.claim_next(owner, lease_until(lease_s), job_id=job_id, per_tenant=per_tenant)
         if job is None:
             return None
         if job.attempts > max_attempts:

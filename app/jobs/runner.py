@@ -114,7 +114,8 @@ class _Pool:
 class EmbeddedRunner:
     def __init__(self, sessions: sessionmaker[Session], store: ScanStore, workers: int, job_timeout_s: float, run_jobs: bool = True,
                  metrics: Metrics | None = None, lease_s: float = 60.0, max_attempts: int = 3,
-                 enqueue: Callable[[str], None] | None = None, worker_memory_bytes: int = 0):
+                 enqueue: Callable[[str], None] | None = None, worker_memory_bytes: int = 0,
+                 fits_per_tenant: int | None = None):
         self.sessions = sessions
         self.store = store
         self.workers = workers
@@ -129,6 +130,8 @@ class EmbeddedRunner:
         if enqueue is not None:
             self.run_jobs = False
         self.owner = lifecycle.owner_name()
+        #: at most this many of one clinic's fits at once (app.services.fair_share); None: any
+        self.fits_per_tenant = fits_per_tenant
         self.check_pool = _Pool("check", workers, worker_memory_bytes)
         self.fit_pool = _Pool("fit", workers, worker_memory_bytes)
         self._wakeup: asyncio.Event | None = None
@@ -221,7 +224,8 @@ class EmbeddedRunner:
             return job_status_counts(session)
 
     def _claim(self):
-        return lifecycle.claim(self.sessions, self.store, self.owner, self.lease_s, self.max_attempts)
+        return lifecycle.claim(self.sessions, self.store, self.owner, self.lease_s, self.max_attempts,
+                               per_tenant=self.fits_per_tenant)
 
     def _release_all(self, job_ids: list[str]) -> None:
         for job_id in job_ids:

@@ -8,13 +8,18 @@ Three bounds, each per tenant (a clinic):
   Retry-After, before the scan is received or checked.
 - **Upload checks** (:class:`CheckGate`): at most CALF_TENANT_MAX_CHECKS of a tenant's
   upload checks run in the check pool at once (default: all workers but one, at least
-  one), so another clinic's check always finds a worker free of the first clinic's;
+  one; with keys off all), so another clinic's check always finds a worker free of the
+  first clinic's;
   a tenant's further checks wait for its own slot (costing nothing: the scan is on disk),
   and after CALF_VALIDATION_TIMEOUT_S are refused with 429 ``too_many_checks``.
 - **Fits**: the embedded runner claims the oldest queued job of the tenant with the
-  fewest running fits (:meth:`app.db.repositories.JobRepository.claim_next`), so a
-  clinic that uploads while another's queue is full waits for one fit to end, not for
-  that queue.  (Dramatiq workers take messages in the broker's order; the job bound
+  fewest running fits, and none of a tenant already running CALF_TENANT_MAX_FITS
+  (default: all workers but one) (:meth:`app.db.repositories.JobRepository.claim_next`),
+  so a clinic that uploads while another's queue is full finds a fit worker free.
+
+With keys off (a service bound to localhost) every request is the one tenant
+``default``: there is nothing to share, and the check and fit bounds default to every
+worker.  (Dramatiq workers take messages in the broker's order; the job bound
   above bounds what one clinic can put ahead of another there.)
 """
 

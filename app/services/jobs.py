@@ -71,6 +71,7 @@ class JobService:
             "limits": {
                 "max_active_jobs": settings.tenant_max_jobs,
                 "max_concurrent_checks": settings.checks_per_tenant,
+                "max_concurrent_fits": settings.fits_per_tenant,
                 "uploads_per_minute": settings.upload_rate_limit,
                 "requests_per_minute": settings.rate_limit,
                 "max_upload_bytes": settings.max_upload_bytes,

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import AsyncIterator
 
 from python_multipart.exceptions import MultipartParseError
-from python_multipart.multipart import MultipartParser, parse_options_header
+from python_multipart.multipart import MultipartParser, MultipartState, parse_options_header
 
 from app.errors import BadRequest, EmptyBody, PayloadTooLarge, UnsupportedMediaType
 from app.geometry.scan_io import SUPPORTED_FORMATS
@@ -92,7 +92,7 @@ def format_for_media_type(media_type: str, format_hint: str | None) -> str:
     if format_hint:
         hint = format_hint.lower().lstrip(".")
         if hint not in SUPPORTED_FORMATS:
-            raise UnsupportedMediaType(f"unsupported scan format {hint!r}; use one of {', '.join(SUPPORTED_FORMATS)}")
+            raise UnsupportedMediaType(f"unsupported scan format {format_hint[:40]!r}; use one of {', '.join(SUPPORTED_FORMATS)}")
         return hint
     if media_type in MEDIA_TYPES:
         return MEDIA_TYPES[media_type]
@@ -205,6 +205,10 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
                 raise PayloadTooLarge(f"the upload exceeds the limit of {limit} bytes")
             parser.write(chunk)
         parser.finalize()
+        if received and parser.state not in (MultipartState.END, MultipartState.BOUNDARY_PADDING):
+            # the body stopped before its closing boundary: a cut-off upload, not a scan
+            raise BadRequest("the multipart body ends before its closing boundary: the upload was cut off; send it "
+                             "again", code="truncated_body")
     except MultipartParseError as exc:
         for writer, _, _ in files:
             writer.abort()

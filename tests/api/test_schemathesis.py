@@ -4,7 +4,9 @@ Schemathesis generates requests for every operation, sends them to `calf-nurbs s
 status, headers, media type and body as documented.
 
 Bounded: CALF_SCHEMATHESIS_EXAMPLES cases per operation (default 20), derandomized so a
-run is repeatable.  Path ids are, for half of the cases, those of a real record, design
+run is repeatable.  The stateful phase chains calls along the links Schemathesis infers
+from the document (a record's id from an import or a population into its measurements,
+designs, surface, deletion...): CALF_SCHEMATHESIS_SEQUENCES sequences (default 15).  Path ids are, for half of the cases, those of a real record, design
 and job of the key's clinic, so that the success responses are checked too, not only
 the 404s of random ids.
 """
@@ -26,6 +28,9 @@ from tests.api.test_processes import fit_one  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_EXAMPLES", "20"))
+#: call sequences of the stateful phase (each up to STATEFUL_STEPS calls)
+STATEFUL_EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_SEQUENCES", "15"))
+STATEFUL_STEPS = 6
 #: operations whose 422 answers content that a JSON schema cannot judge: a scan's bytes
 #: (is it a leg?), a record's geometry (a knot vector with a domain, a closed tube), a
 #: design's physics (can the fabric reach the pressure?).  Schemathesis's positive-data
@@ -71,3 +76,15 @@ def test_every_operation_keeps_its_contract(case, deployed):
     if case.path_parameters and len(str(next(iter(case.path_parameters.values())))) % 2 == 0:
         case.path_parameters = {name: ids.get(name, value) for name, value in case.path_parameters.items()}
     case.call_and_validate(base_url=base, headers=auth, timeout=60)
+
+
+def test_call_sequences_keep_their_contract(deployed):
+    """The stateful phase: sequences of calls linked by the ids one answer gives the next."""
+    base, auth, _ = deployed
+
+    class Sequences(schema.as_state_machine()):
+        def get_call_kwargs(self, case):
+            return {"base_url": base, "headers": auth, "timeout": 60}
+
+    Sequences.run(settings=settings(max_examples=STATEFUL_EXAMPLES, stateful_step_count=STATEFUL_STEPS, deadline=None,
+                                    derandomize=True, database=None, suppress_health_check=list(HealthCheck)))

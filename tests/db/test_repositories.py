@@ -62,3 +62,16 @@ def test_a_dead_runners_fit_does_not_count_against_its_clinic(sessions):
         # A's lapsed fit is claimable again and counts as not running: A's oldest job first
         assert system.claim_next("runner", utcnow() + timedelta(seconds=60)).id == a_jobs[0]
         assert system.claim_next("runner", utcnow() + timedelta(seconds=60)).id == b_jobs[0]
+
+
+def test_a_clinic_at_its_running_bound_leaves_the_worker_to_others(sessions):
+    with sessions() as session:
+        a_jobs = _queue(session, "clinic-a", 3)
+        session.commit()
+        system = JobRepository(session)
+        assert system.claim_next("runner", utcnow() + timedelta(seconds=60), per_tenant=1).id == a_jobs[0]
+        # A runs its one fit: its next job waits although a worker is free
+        assert system.claim_next("runner", utcnow() + timedelta(seconds=60), per_tenant=1) is None
+        b_jobs = _queue(session, "clinic-b", 1)
+        session.commit()
+        assert system.claim_next("runner", utcnow() + timedelta(seconds=60), per_tenant=1).id == b_jobs[0]
