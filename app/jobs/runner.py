@@ -28,12 +28,15 @@ Crash safety (every accepted job ends exactly once, as a record or a failure):
 from __future__ import annotations
 
 import asyncio
+import ctypes
+import ctypes.util
 import functools
 import logging
 import multiprocessing
 import os
 import resource
 import signal
+import sys
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
@@ -46,7 +49,7 @@ from app.errors import Unavailable
 from app.geometry.errors import FitFailure
 from app.jobs import lifecycle
 from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL, timeout_detail
-from app.services.fitting import fit_scan_file
+from app.services.fitting import fit_scan_file, warm_up
 from app.services.jobs import job_status_counts
 from app.services.storage import ScanStore
 
@@ -56,12 +59,24 @@ if TYPE_CHECKING:
 log = logging.getLogger("calf_nurbs.runner")
 
 
-def limit_worker_memory(limit_bytes: int) -> None:
-    """Pool initializer: cap the worker's address space (RLIMIT_AS), so that a scan that
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def prepare_worker(limit_bytes: int, parent_pid: int) -> None:
+    """Pool initializer.  Cap the worker's address space (RLIMIT_AS), so that a scan that
     needs more memory than the limit fails in its own worker with MemoryError (the
-    fitting functions turn it into ``scan_too_large``) instead of taking the machine."""
+    fitting functions turn it into ``scan_too_large``) instead of taking the machine; and
+    on Linux have the kernel kill the worker when the process that started it dies
+    (prctl PR_SET_PDEATHSIG): a killed API leaves no orphan workers holding memory.
+    The pools are started from the event loop's thread, which lives as long as the
+    process (the death signal follows the thread that forked)."""
     if limit_bytes > 0:
         resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+    libc_name = ctypes.util.find_library("c")
+    if sys.platform.startswith("linux") and libc_name:
+        ctypes.CDLL(libc_name, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() != parent_pid:  # the parent died before the signal was armed
+            os._exit(1)
 
 
 class _Pool:
@@ -77,7 +92,12 @@ class _Pool:
 
     def start(self) -> None:
         self.executor = ProcessPoolExecutor(max_workers=self.workers, mp_context=multiprocessing.get_context("spawn"),
-                                            initializer=limit_worker_memory, initargs=(self.memory_bytes,))
+                                            initializer=prepare_worker, initargs=(self.memory_bytes, os.getpid()))
+        # every worker started now, not on first use: a spawned worker takes ~1 s to
+        # import the numerical stack, which a request would otherwise wait for (the
+        # executor starts a process per submission while none is idle)
+        for _ in range(self.workers):
+            self.executor.submit(warm_up)
 
     def replace(self, generation: int) -> None:
         """Replace the pool if it is still the ``generation`` that broke."""

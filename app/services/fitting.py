@@ -69,7 +69,7 @@ def fit_options(options: dict) -> FitOptions:
 @contextlib.contextmanager
 def worker_task():
     """Around a worker's task: a MemoryError (the worker's RLIMIT_AS,
-    app.jobs.runner.limit_worker_memory) becomes ``scan_too_large``, and the memory the
+    app.jobs.runner.prepare_worker) becomes ``scan_too_large``, and the memory the
     task freed is handed back to the system (glibc keeps freed arenas otherwise: an idle
     worker held 1.2 GB after a large scan)."""
     try:
@@ -82,6 +82,11 @@ def worker_task():
         gc.collect()
         if _LIBC is not None:
             _LIBC.malloc_trim(0)
+
+
+def warm_up() -> None:
+    """Worker: nothing - this module and its imports (numpy, scipy, trimesh) are loaded
+    when the call arrives; the pools call it once per worker at start."""
 
 
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
