@@ -32,6 +32,7 @@ from app.geometry.nurbs import NurbsSurface, surface_from_layers
 from app.geometry.placement import LegPlacement, place_leg, replace_leg
 from app.geometry.scan_io import Scan
 from app.geometry.sections import PolarSections, slice_polar, tape_girths
+from app.geometry.skin_distance import OFF_SKIN_MM, SkinDistance, surface_to_scan
 from app.geometry.surface_error import SurfaceError, error_statistics
 
 #: the error index of a point cloud is computed on at most this many of its calf points
@@ -44,6 +45,17 @@ from app.geometry.surface_error import SurfaceError, error_statistics
 MAX_ERROR_POINTS = 20_000
 
 SURFACE_MODES = ("paper", "paper_stacked", "lsq")
+#: an lsq net with fewer scan points per control point than this is warned about: a
+#: least-squares fit averages noise over the points of each control point's support
+#: (16 basis functions overlap a point in a bicubic net, so each control point sees
+#: about 16 times its share); below ~10 per control point the sections and the
+#: smoothing, not the scan, set the surface (a registered body mesh's calf: ~140 points
+#: for a 12 x 24 net's 288)
+MIN_POINTS_PER_CONTROL = 10
+#: a mesh's triangles are skin between its vertices (the sections sample them exactly),
+#: so a mesh is warned about only with fewer vertices than control points: its
+#: triangles are then larger than the net's patches
+MIN_VERTICES_PER_CONTROL = 1
 
 
 @dataclass(frozen=True)
@@ -104,10 +116,12 @@ class FitResult:
     placement: LegPlacement | None = None
     lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
     sole_mm: float | None = None  # calf-frame z of the sole (the leg's lowest point) when the foot is in the scan
+    skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.skin_distance)
+    fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
 
     @property
     def warnings(self) -> list[str]:
-        return list(self.placement.warnings) if self.placement is not None else []
+        return (list(self.placement.warnings) if self.placement is not None else []) + list(self.fit_warnings)
 
 
 def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
@@ -246,6 +260,21 @@ def fit_calf(
     lap("nurbs")
 
     error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
+    skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
+    fit_warnings = []
+    if skin.off_skin:
+        fit_warnings.append(
+            f"the surface stands up to {skin.max_mm:.1f} mm off the scan's skin: {skin.worst_ring_share:.0%} of its ring "
+            f"at {skin.worst_ring_height_mm:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off, so its girths there are "
+            "not the scan's" + (" (try mode=paper or a finer grid)" if options.mode == "lsq" else ""))
+    if lsq_fit is not None:
+        per_control = len(in_calf) / (lsq_fit.grid.around * lsq_fit.grid.along)
+        needed = MIN_POINTS_PER_CONTROL if faces is None else MIN_VERTICES_PER_CONTROL
+        if per_control < needed:
+            what = "scan points" if faces is None else "mesh vertices"
+            fit_warnings.append(
+                f"the lsq net has {per_control:.1f} {what} per control point (fewer than {needed}): the surface is set "
+                "by the resampled sections and the smoothing more than by the scan; use a coarser grid or a denser scan")
     lap("error")
     return FitResult(
         surface=surface,
@@ -262,6 +291,8 @@ def fit_calf(
         timings=timings,
         placement=placement,
         lsq=lsq_fit,
+        skin=skin,
+        fit_warnings=tuple(fit_warnings),
     )
 
 

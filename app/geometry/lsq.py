@@ -61,9 +61,10 @@ import numpy as np
 from scipy.interpolate import BSpline, PchipInterpolator
 from scipy.sparse import block_diag, bmat, csr_matrix, diags, vstack
 from scipy.sparse.linalg import splu
+from scipy.spatial import cKDTree
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.nurbs import NurbsSurface, evaluate_derivatives
+from app.geometry.nurbs import NurbsSurface, evaluate_derivatives, evaluate_grid
 from app.geometry.sections import PolarSections
 from app.geometry.surface_error import foot_points
 
@@ -215,7 +216,8 @@ def solve_grid(data: np.ndarray, u: np.ndarray, v: np.ndarray, grid: LsqGrid,
 
 def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray, normals: np.ndarray,
                                grid: LsqGrid, smoothing: float = SMOOTHING, weights: np.ndarray | None = None,
-                               tangential: float | None = None) -> np.ndarray:
+                               tangential: float | None = None,
+                               end_heights: tuple[float, float] | None = None) -> np.ndarray:
     """One step of squared-distance minimization (SDM; Wang, Pottmann & Liu, ACM TOG
     2006): the net (around, along, 3) minimizing, with the foot parameters (u, v) fixed,
 
@@ -247,6 +249,15 @@ def solve_net_squared_distance(points: np.ndarray, u: np.ndarray, v: np.ndarray,
         scale = smoothing * float(normal.diagonal().mean())
         pp = penalty.T @ penalty
         normal = normal + scale * block_diag([pp, pp, pp])
+    if end_heights is not None:
+        # flat ends: the z of the first and last control rows (the border curves of a
+        # clamped surface) held at the heights of B and D by a stiff penalty
+        index = np.arange(n).reshape(grid.around, grid.along)
+        ends = np.concatenate([index[:, 0], index[:, -1]]) + 2 * n
+        target = np.repeat(np.asarray(end_heights, dtype=np.float64), grid.around)
+        stiff = END_STIFFNESS * float(normal.diagonal().mean())
+        normal = normal + diags(np.bincount(ends, minlength=3 * n).astype(float) * stiff)
+        rhs = rhs + np.bincount(ends, weights=target * stiff, minlength=3 * n)
     solution = _solve_normal_equations(normal, rhs)
     return solution.reshape(3, n).T.reshape(grid.around, grid.along, 3)
 
@@ -276,6 +287,55 @@ def section_points(sections: PolarSections) -> np.ndarray:
     c = sections.centroids_mm
     return np.stack([c[:, 0, None] + sections.radii_mm * np.cos(a), c[:, 1, None] + sections.radii_mm * np.sin(a),
                      np.broadcast_to(sections.heights_mm[:, None], sections.radii_mm.shape)], axis=-1)
+
+
+#: weight of the flat-ends penalty, relative to the mean diagonal of the normal equations
+END_STIFFNESS = 1e4
+#: the end rings hold the border as firmly as the scan points of this much leg would
+END_RING_BAND_MM = 5.0
+
+
+def end_rings(sections: PolarSections, layer_heights: np.ndarray, n_points: int,
+              length_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The resampled sections at B and D as data of the SDM rounds held on the border:
+    points (2a, 3), v (2a,) (their sections' v: 0 at B, 1 at D) and weights (2a,); each
+    round pairs them with the nearest point of their ring (:func:`ring_feet`).
+
+    A clamped surface's border curve is its first (last) control row, and in the SDM
+    rounds no scan point pulls it: the points project inside, so the border drifts off
+    the planes of B and D and away from the skin (a plane z = D then cuts the surface
+    only partly: a D girth 15-62 mm short on the real legs).  The polar resampling's
+    rings at B and D (gaps bridged in the polar domain, paper 2.1) hold it: each ring
+    weighs as much as the scan points within :data:`END_RING_BAND_MM` of it, with the
+    1 / r^2 weight of the error index; being on the border, its points pull by their
+    whole offset (point distance); with the flat ends of
+    :func:`solve_net_squared_distance` the border lies in the planes z = B and z = D."""
+    valid = np.flatnonzero(sections.valid)
+    ends = valid[[0, -1]]
+    points = section_points(sections)[ends].reshape(-1, 3)
+    a = len(sections.angles_rad)
+    v = np.repeat(anatomical_v(sections.heights_mm[ends], layer_heights), a)
+    radius = np.repeat(sections.mean_radii()[ends], a)
+    per_point = n_points / max(length_mm, 1e-9) * END_RING_BAND_MM / a
+    return points, v, per_point / radius ** 2
+
+
+#: samples of a ring searched for the nearest point (0.14 mm apart round a 400 mm girth)
+RING_SAMPLES = 2880
+
+
+def ring_feet(surface: NurbsSurface, points: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """u (N,) of the nearest point to each of points (N, 3) on the surface's ring at its
+    v (N,) (a few distinct v: the end rings), from :data:`RING_SAMPLES` samples: the
+    ring's own parameter, so that an end ring holds the border without dragging it
+    round the leg (the ray angle is not the surface's u)."""
+    u_grid = np.arange(RING_SAMPLES) / RING_SAMPLES
+    out = np.empty(len(points))
+    for ring_v in np.unique(v):  # two rings
+        pick = v == ring_v
+        ring = evaluate_grid(surface, u_grid, np.array([ring_v]))[:, 0]
+        out[pick] = u_grid[cKDTree(ring).query(points[pick])[1]]
+    return out
 
 
 @dataclass(frozen=True)
@@ -309,13 +369,21 @@ def fit_lsq_surface(sections: PolarSections, layer_heights: np.ndarray, scan_poi
     nearest = np.clip(np.searchsorted(heights, sample[:, 2]), 0, len(heights) - 1)
     sample_weight = 1.0 / radius[nearest] ** 2
     rms = []
+    anchors, anchor_v, anchor_weight = end_rings(sections, layer_heights, len(sample), length)
     for _ in range(corrections if len(sample) else 0):
         distance, pu, pv = foot_points(surface, sample, length)
         rms.append(float(np.sqrt(np.mean(distance**2))))
         _, su, sv, _, _, _ = evaluate_derivatives(surface, pu, pv)
         normals = np.cross(su, sv)
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-        net = solve_net_squared_distance(sample, pu, pv, normals, grid, smoothing, sample_weight)
+        anchor_u = ring_feet(surface, anchors, anchor_v)
+        net = solve_net_squared_distance(np.concatenate([sample, anchors]), np.concatenate([pu, anchor_u]),
+                                         np.concatenate([pv, anchor_v]),
+                                         np.concatenate([normals, np.zeros_like(anchors)]), grid, smoothing,
+                                         np.concatenate([sample_weight, anchor_weight]),
+                                         end_heights=(float(layer_heights[0]), float(layer_heights[-1])))
+        # the stiff penalty leaves the end rows within ~1e-4 mm of B and D: exactly flat
+        net[:, 0, 2], net[:, -1, 2] = layer_heights[0], layer_heights[-1]
         surface = surface_from_net(net)
     if corrections and len(sample):
         rms.append(float(np.sqrt(np.mean(foot_points(surface, sample, length)[0] ** 2))))

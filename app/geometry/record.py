@@ -21,7 +21,11 @@ JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
                max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
-               stage_seconds, per_layer, d_at_window_edge}
+               stage_seconds, per_layer, d_at_window_edge, surface_to_scan}
+              surface_to_scan: the other side of E - the surface sampled densely, each
+              sample's distance to the scan where the scan has data
+              (app.geometry.skin_distance): median_mm, p99_mm, max_mm, coverage,
+              off_skin_share, worst_ring_share (of one ring, more than 3 mm off), ...
 
 The surface is stored in the standard open form (see :mod:`app.geometry.nurbs`): u runs
 around the leg and is periodic but written unwrapped - the first ``degree_u`` control
@@ -126,6 +130,8 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
         "per_layer": list(err.per_layer),
         "d_at_window_edge": bool(result.landmarks.d_at_window_edge),
     }
+    if result.skin is not None:
+        fit["surface_to_scan"] = result.skin.as_dict()
     if result.lsq is not None:
         fit["grid"] = {"along": result.lsq.grid.along, "around": result.lsq.grid.around}
         fit["correction_rms_mm"] = list(result.lsq.rms_mm)

@@ -42,8 +42,11 @@ def test_parameter_correction_brings_the_surface_to_unparametrised_points():
     """The same surface, its points handed over without parameters (as a scan is) and
     the first fit made from the polar sections of its mesh (v from the heights, which
     is not the surface's own v): every correction round brings the surface closer to
-    the points; twelve rounds halve the first fit's RMS distance (the parameters
-    converge linearly: with them given, the solver is exact, test above)."""
+    the points; twelve rounds take the first fit's RMS distance below 0.6 of itself
+    and 0.05 mm (the parameters converge linearly: with them given, the solver is
+    exact, test above; the end rings, which hold the borders in the planes of B and D,
+    are sections 1 mm inside them here, at v 1/300 off their own, and slow the last
+    rounds: 0.55 of the first fit where free borders reached 0.5)."""
     grid = lsq.LsqGrid(7, 15)
     truth = lsq.surface_from_net(_leg_like_net(grid))
     rng = np.random.default_rng(5)
@@ -58,7 +61,7 @@ def test_parameter_correction_brings_the_surface_to_unparametrised_points():
     fit = lsq.fit_lsq_surface(sections, np.linspace(0.0, 300.0, 7), points, grid, corrections=12, smoothing=0.0)
     rms = np.array(fit.rms_mm)
     assert (np.diff(rms) < 0).all(), rms
-    assert rms[-1] < 0.5 * rms[0] and rms[-1] < 0.05, rms
+    assert rms[-1] < 0.6 * rms[0] and rms[-1] < 0.05, rms
 
 
 def test_grid_option_is_parsed_and_bad_grids_are_refused_in_words():
@@ -94,3 +97,31 @@ def test_lsq_on_a_real_leg_beats_the_paper_at_the_same_size_and_keeps_the_anatom
     assert data["fit"]["mode"] == "lsq" and data["fit"]["grid"] == {"along": 7, "around": 15}
     again = parse_record(data)
     assert np.allclose(again.surface.control_points, result.surface.control_points)
+
+
+@pytest.mark.parametrize("file, side, grid", [("bodyparts3d_right_leg.stl", None, "7x15"),
+                                              ("vh_female_skin.glb", "left", "12x24"),
+                                              ("vh_male_skin.glb", "right", "7x15")])
+def test_lsq_ends_lie_in_the_planes_of_b_and_d_and_read_the_scans_girths(file, side, grid):
+    """The border rows are held flat at B and D and on the end rings (lsq.end_rings):
+    the surface's tape girths in the planes of B, B1, C, D are the scan's within 2 mm
+    (they were 15-62 mm short at D with free borders), it stands on the skin (surface
+    -> scan p99 under 3 mm), and a class II design works on it with no heights given."""
+    from app.geometry.fabric import Fabric
+    from app.geometry.garment import DesignInputs, design_stocking
+    from app.geometry.measure import girths
+
+    scan, _ = fitted(file, side)
+    result = fit_scan(scan, FitOptions(side=side, mode="lsq", grid=grid))
+    lm = result.landmarks
+    ctrl = result.surface.control_points
+    assert np.allclose(ctrl[:, 0, 2], lm.B.height_mm, atol=1e-3) and np.allclose(ctrl[:, -1, 2], lm.D.height_mm, atol=1e-3)
+    names = ("B", "B1", "C", "D")
+    measured = girths(result.surface, np.array([getattr(lm, n).height_mm for n in names]))
+    for name, girth in zip(names, measured):
+        assert abs(girth.tape_mm - lm.tape_girths_mm[name]) < 2.0, name
+    assert result.skin.p99_mm < 3.0 and not result.skin.off_skin
+    record = record_from_fit(result, "stl", "mm")
+    design = design_stocking(record.surface, record.landmarks, record.side,
+                             DesignInputs(standard="RAL", compression_class="II", fabric=Fabric.linear(10.0, 1.0)))
+    assert design["landmarks"]["B"]["mean_pressure_mmHg"] > 0

@@ -1,0 +1,55 @@
+"""The surface -> scan distance (app.geometry.skin_distance): the other side of E."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.geometry.lsq import surface_from_net
+from app.geometry.skin_distance import OFF_SKIN_MM, surface_to_scan
+from tests.phantoms import cylinder
+
+
+def _tube_surface(radius: float, length: float = 300.0, bulge: float = 0.0):
+    """A cubic lsq-layout tube of ``radius`` (mm), with a bulge of ``bulge`` mm added on
+    one arc (u near 0) of its middle rows."""
+    around, along = 24, 12
+    theta = 2 * np.pi * np.arange(around) / around + np.pi / 2
+    z = np.linspace(0.0, length, along)
+    r = np.full((around, along), radius)
+    r[[23, 0, 1], 5:7] += bulge
+    net = np.stack([r * np.cos(theta)[:, None], r * np.sin(theta)[:, None], np.broadcast_to(z, r.shape)], axis=-1)
+    return surface_from_net(net)
+
+
+@pytest.fixture(scope="module")
+def skin():
+    mesh = cylinder(50.0, 50.0, length=300.0)  # a tube of radius 50 mm, z 0..300
+    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+
+
+def test_a_surface_on_the_skin_is_measured_near_zero_on_a_mesh_and_a_cloud(skin):
+    vertices, faces = skin
+    surface = _tube_surface(50.0 / np.cos(np.pi / 24) ** 0.5)  # the control polygon sits outside the curve
+    on_mesh = surface_to_scan(surface, vertices, faces, 0.0, 300.0)
+    assert on_mesh.coverage == pytest.approx(1.0) and on_mesh.p99_mm < 1.0 and not on_mesh.off_skin
+    on_cloud = surface_to_scan(surface, vertices, None, 0.0, 300.0)
+    assert on_cloud.p99_mm < 2.0 and not on_cloud.off_skin
+
+
+def test_an_arc_off_the_skin_is_found_and_located(skin):
+    vertices, faces = skin
+    result = surface_to_scan(_tube_surface(50.0, bulge=12.0), vertices, faces, 0.0, 300.0)
+    assert result.off_skin and result.max_mm > OFF_SKIN_MM
+    assert 100.0 < result.worst_height_mm < 200.0 and 100.0 < result.worst_ring_height_mm < 200.0
+
+
+def test_a_hole_in_the_scan_is_not_counted_against_the_surface(skin):
+    """Where the scan has no data the surface bridges by design: an arc missing from the
+    scan over the bulge leaves the bulge unmeasured, not off the skin."""
+    vertices, faces = skin
+    angle = np.degrees(np.arctan2(vertices[:, 0], vertices[:, 1]))  # 0 at +y, where the bulge is
+    hole = (np.abs(angle) < 60.0) & (vertices[:, 2] > 30.0) & (vertices[:, 2] < 270.0)  # the bulge's support
+    keep = ~hole[faces].any(axis=1)
+    result = surface_to_scan(_tube_surface(50.0, bulge=12.0), vertices, faces[keep], 0.0, 300.0)
+    assert result.coverage < 0.97 and not result.off_skin
