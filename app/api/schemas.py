@@ -112,6 +112,9 @@ class JobOut(BaseModel):
     stage_seconds: dict | None = Field(description="seconds per fitting stage, once succeeded")
     error: JobError | None
     record_id: str | None
+    warnings: list[str] = Field(default_factory=list, description="the record's warnings, once the job has one: "
+                                "what the fit noticed (a given side the foot contradicts, the surface off the skin, "
+                                "landmarks at the scan's edge...)")
     links: dict[str, str]
 
 

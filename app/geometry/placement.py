@@ -32,6 +32,10 @@ from app.geometry.leg_size import check_leg_size
 from app.geometry.scan_io import MIN_POINTS, Scan
 from app.geometry.side import infer_side
 
+#: a given side against a foot inference at least this confident is warned about (on the
+#: inference's own scale, app.geometry.side: 0.5 is a symmetric foot, 1 a clear one)
+CONTRADICTED_SIDE_CONFIDENCE = 0.9
+
 #: a piece shorter than this cannot hold an ankle, a calf and a knee waist, mm
 #: (ANSUR II: lateral malleolus to tibiale is at least ~300 mm)
 MIN_LEG_LENGTH_MM = 200.0
@@ -208,10 +212,19 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         warnings.append(f"{ignored} detached piece(s) of the scan were ignored (no ankle, calf and knee in them)")
     if len(legs) == 1:
         candidate, placement = legs[0]
+        guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
         if side is not None:
+            # the clinician's side is kept (a foot can mislead: a deformity, an amputated
+            # toe, a bandage), but a confident foot that says otherwise is said in the
+            # record's warnings - left and right swap medial and lateral in every design
             found, source, confidence = side, "given", None
+            if guess.side is not None and guess.side != side and guess.confidence >= CONTRADICTED_SIDE_CONFIDENCE:
+                warnings.append(
+                    f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
+                    f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is wrong, "
+                    "medial and lateral are swapped in every design - check the scan and upload it again with the "
+                    "right side")
         else:
-            guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
             found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
             if guess.side is None and guess.reason:
                 warnings.append(f"left or right could not be told: {guess.reason}")

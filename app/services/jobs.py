@@ -8,7 +8,7 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from app.db.models import Job, Scan
-from app.db.repositories import JobRepository, ScanRepository
+from app.db.repositories import JobRepository, RecordRepository, ScanRepository
 from app.errors import FAILURE_TITLES, PROBLEM_TYPE_PREFIX, NotFound
 from app.geometry.errors import FailureReason
 from app.services.fair_share import too_many_jobs
@@ -85,13 +85,20 @@ class JobService:
             raise NotFound(f"no job {job_id!r}", code="job_not_found")
         return job, self.scans.get(job.scan_id)
 
+    def view(self, job_id: str) -> dict:
+        """The job's view, with its record's warnings once it has one (a given side that
+        the foot contradicts, the surface off the skin...: said where the uploader looks)."""
+        job, scan = self.get(job_id)
+        record = RecordRepository(self.session, self.jobs.tenant_id).get(job.record_id) if job.record_id else None
+        return job_view(job, scan, warnings=list((record.body or {}).get("warnings") or []) if record else [])
+
 
 def job_status_counts(session: Session) -> dict[str, int]:
     """Jobs of every tenant by status (the service's own metrics, no tenant shown)."""
     return JobRepository(session).count_by_status()
 
 
-def job_view(job: Job, scan: Scan, reused: bool | None = None) -> dict:
+def job_view(job: Job, scan: Scan, reused: bool | None = None, warnings: list[str] | None = None) -> dict:
     error = None
     if job.error_code:
         try:
@@ -116,5 +123,6 @@ def job_view(job: Job, scan: Scan, reused: bool | None = None) -> dict:
         "stage_seconds": job.stage_seconds,
         "error": error,
         "record_id": job.record_id,
+        "warnings": warnings or [],
         "links": links,
     }

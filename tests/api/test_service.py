@@ -219,3 +219,13 @@ def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
     assert job["error"]["code"] == "unreadable_file" and job["error"]["type"].endswith(":unreadable_file")
     assert "cannot be opened" in job["error"]["detail"] and job["finished_at"]
     assert str(tmp_path) not in job["error"]["detail"] and sha not in job["error"]["detail"]  # no server path
+
+
+def test_a_side_given_against_the_foot_is_warned_in_the_job_and_the_record(client):
+    response = client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(),
+                           params={"side": "left", "points": 9}, headers={"Content-Type": "model/stl"})
+    job = wait_for_job(client, response.headers["location"])
+    assert job["status"] == "succeeded"
+    warning = next(w for w in job["warnings"] if "given as left" in w)
+    record = client.get(f"/api/v1/records/{job['record_id']}").json()
+    assert record["side"] == "left" and warning in record["warnings"]
