@@ -62,15 +62,16 @@ def revolution_leg(step: float = 1.0) -> trimesh.Trimesh:
 def revolution_truth(sigma_mm: float = 0.0) -> dict:
     """Landmark heights (z) and girths of :func:`calf_radius`, found numerically on a
     0.01 mm grid (girth = 2 pi r): B the ankle minimum, C the calf maximum, D the
-    minimum above C, B1 the steepest girth increase between B and C."""
+    minimum above C, B1 the first height above B where the girth has risen half of the
+    way to C's (app.geometry.landmarks.b1_height)."""
     z = np.arange(0.0, 450.0, 0.01)
     girth = 2.0 * np.pi * calf_radius(z)
     interior = (z > 40) & (z < 440)
     b = z[interior][np.argmin(np.where(z[interior] < 200, girth[interior], np.inf))]
     c = z[np.argmax(np.where((z > b) & (z < 400), girth, -np.inf))]
     d = z[np.argmin(np.where((z > c) & (z < 440), girth, np.inf))]
-    slope = np.gradient(girth, z)
-    b1 = z[np.argmax(np.where((z > b) & (z < c), slope, -np.inf))]
+    g_b, g_c = 2.0 * np.pi * calf_radius(np.array([b, c]))
+    b1 = z[np.argmax((z > b) & (z < c) & (girth >= 0.5 * (g_b + g_c)))]
     g = lambda h: float(2.0 * np.pi * calf_radius(np.array([h]))[0])  # noqa: E731
     return {"B": (b, g(b)), "B1": (b1, g(b1)), "C": (c, g(c)), "D": (d, g(d))}
 

@@ -407,16 +407,33 @@ def _no_calf(detail: str) -> FitFailure:
 
 
 def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float) -> float:
-    """B1: height of the largest dC/dh strictly between B and C (paper section 2.2, Fig. 3b).
+    """B1: where the girth has risen half of the way from B to C.
 
-    heights (k,) evenly spaced, girth (k,) mm; returns mm.
+    The paper (section 2.2, Fig. 3b) puts B1 where the girth rises fastest, the largest
+    dC/dh between B and C: the transition of the Achilles tendon into the calf muscles
+    (RAL-GZ 387's measuring point B1).  Between the ankle and the calf the profile is a
+    sigmoid-shaped rise, and a sigmoid rises fastest at half its rise; but the maximum
+    of a derivative is flat-topped on a real calf and moves with the noise of the
+    profile - the same leg scanned again put it up to 39 mm elsewhere
+    (benchmarks/results/repeatability.md).  The half-rise level crossing is the same
+    point of a symmetric rise, found from two girths each known to ~1 mm: a 1 mm change
+    of either moves it by about 1 mm / (2 dC/dh), under a millimetre on a calf.
+
+    heights (k,) evenly spaced, girth (k,) mm; the first height above B where the
+    smoothed profile reaches (C(B) + C(C)) / 2, linearly interpolated; mm.
     """
     g = smooth_profile(heights, girth)
-    slope = np.gradient(g, heights)
-    inside = (heights > b_mm) & (heights < c_mm)
-    if not inside.any():
+    inside = np.flatnonzero((heights > b_mm) & (heights < c_mm))
+    if not inside.size:
         return 0.5 * (b_mm + c_mm)
-    return float(heights[inside][np.argmax(slope[inside])])
+    g_b, g_c = np.interp(b_mm, heights, g), np.interp(c_mm, heights, g)
+    level = 0.5 * (g_b + g_c)
+    above = inside[g[inside] >= level]
+    if not above.size or above[0] == 0:
+        return 0.5 * (b_mm + c_mm)
+    i = above[0]
+    h0, h1, g0, g1 = heights[i - 1], heights[i], g[i - 1], g[i]
+    return float(h0 + (level - g0) / (g1 - g0) * (h1 - h0)) if g1 > g0 else float(h1)
 
 
 def layer_heights(b: float, b1: float, c: float, d: float) -> np.ndarray:

@@ -243,6 +243,10 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     if placement.b_at_scan_edge:
         warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge; "
                         "include the heel in the next scan for a surer ankle")
+    if placement.d_at_window_edge and not placement.d_at_scan_edge:
+        warnings.append("the knee waist D has no distinct minimum below the knee: D is the top of its search window "
+                        f"({placement.d_mm - placement.c_mm:.0f} mm above the calf maximum), and its height and girth "
+                        "are less certain than the other landmarks'")
     if placement.d_at_scan_edge:
         warnings.append("the scan ends at the knee waist D: D is taken at the scan's edge; "
                         "scan 3-4 cm further above the knee for a surer D")

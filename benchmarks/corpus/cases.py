@@ -52,10 +52,15 @@ KINDS: dict[str, tuple[float, str]] = {
 
 @dataclass(frozen=True)
 class CaseSpec:
+    """``seed`` draws the leg and its degradation; with ``leg_seed`` the leg (its size,
+    which leg of the body) is drawn from that seed instead, so that specs sharing a
+    ``leg_seed`` and ``subject_index`` are re-scans of one leg (benchmarks/repeatability.py)."""
+
     case_id: str
     kind: str
     seed: int
     subject_index: int
+    leg_seed: int | None = None
 
 
 @dataclass
@@ -114,8 +119,9 @@ def build_case(spec: CaseSpec) -> Case:
     subject = ansur_subjects()[spec.subject_index]
     knee_flexion = float(rng.uniform(30.0, 100.0)) if kind == "seated" else 0.0
     plantar = float(rng.uniform(20.0, 45.0)) if kind == "plantar" else 0.0
-    legs = sized_legs(subject, rng, knee_flexion, plantar)
-    sign = float(rng.choice([1.0, -1.0]))  # +1 MakeHuman's left leg (x > 0)
+    leg_rng = rng if spec.leg_seed is None else np.random.default_rng(spec.leg_seed)
+    legs = sized_legs(subject, leg_rng, knee_flexion, plantar)
+    sign = float(leg_rng.choice([1.0, -1.0]))  # +1 MakeHuman's left leg (x > 0)
     prefix = "l" if sign > 0 else "r"
     leg = leg_submesh(legs.vertices, legs.faces, sign)
     ankle, knee = legs.joints[f"{prefix}-ankle"], legs.joints[f"{prefix}-knee"]

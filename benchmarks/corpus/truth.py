@@ -7,7 +7,10 @@ refined as the line through the section centroids between them (a tape is held
 perpendicular to the leg's long axis).  On the hull (tape) girth profile, lightly
 smoothed (Gaussian, sigma 3 mm): C is the largest girth in the middle 20-80% of the
 shank, B the smallest between the ankle joint and C, D the smallest between C and
-60 mm above the knee joint, B1 the steepest rise between B and C (paper section 2.2).
+60 mm above the knee joint, B1 the first height above B where the girth has risen half
+of the way from B's to C's (the steepest point of a sigmoid rise, paper section 2.2;
+until 2026-12 it was the largest slope itself, which moves with the noise of a
+flat-topped derivative: app.geometry.landmarks.b1_height says why).
 On a flat calf, C is then moved to the middle of its crown: the heights around the
 maximum whose girth a tape cannot tell from it (within 0.5%, the same definition as
 the service's, since the paper's "maximum" is not a height on a plateau).
@@ -124,9 +127,9 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
         runs = np.split(crown, np.flatnonzero(np.diff(crown) > 1) + 1)
         run = next((r for r in runs if r[0] <= ic <= r[-1]), np.array([ic]))
         ic = int(run[np.argmin(np.abs(heights[run] - 0.5 * (heights[run[0]] + heights[run[-1]])))])
-    slope = np.gradient(g, heights)
     between = np.arange(ib + 1, ic)
-    ib1 = between[np.argmax(slope[between])] if between.size else (ib + ic) // 2
+    risen = between[g[between] >= 0.5 * (g[ib] + g[ic])]
+    ib1 = int(risen[0]) if risen.size else (ib + ic) // 2
     index = {"B": ib, "B1": ib1, "C": ic, "D": id_}
     return LegTruth(
         heights_mm={k: float(heights[i] - heights[ib]) for k, i in index.items()},
