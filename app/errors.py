@@ -91,6 +91,7 @@ FAILURE_TITLES = {
     FailureReason.EMPTY_SCAN: "The scan is empty",
     FailureReason.NON_FINITE_COORDINATES: "The scan has NaN or infinite coordinates",
     FailureReason.TOO_FEW_POINTS: "The scan has too few points",
+    FailureReason.TOO_SPARSE: "The point cloud is too sparse to measure",
     FailureReason.SCAN_TOO_LARGE: "The scan has more points or triangles than the service accepts",
     FailureReason.IMPLAUSIBLE_SIZE: "The scan is not the size of a leg or a body",
     FailureReason.NOT_A_LEG: "The scan is not a leg",

@@ -21,6 +21,7 @@ class FailureReason(str, enum.Enum):
     EMPTY_SCAN = "empty_scan"
     NON_FINITE_COORDINATES = "non_finite_coordinates"
     TOO_FEW_POINTS = "too_few_points"
+    TOO_SPARSE = "too_sparse"
     SCAN_TOO_LARGE = "scan_too_large"
     IMPLAUSIBLE_SIZE = "implausible_size"
     NOT_A_LEG = "not_a_leg"

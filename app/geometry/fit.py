@@ -56,6 +56,15 @@ MIN_POINTS_PER_CONTROL = 10
 #: so a mesh is warned about only with fewer vertices than control points: its
 #: triangles are then larger than the net's patches
 MIN_VERTICES_PER_CONTROL = 1
+#: a cloud whose sections cannot be closed, and whose slabs (up to 20 mm thick,
+#: app.geometry.point_sections.MAX_HALF_MM) hold a point in fewer than this share of the
+#: 5-degree sectors around the leg (median), is too sparse rather than not a leg: with
+#: half the sectors empty at random, gaps wider than the 100 degrees a section may bridge
+#: (MAX_GAP_DEG) are common; refused as too_sparse, with the coverage and density found
+MIN_SECTOR_COVERAGE = 0.6
+#: below this density (the slabs are then thicker than 8 mm), a cloud's girths are
+#: warned about: a thick slab at the ankle minimum reads the wider leg above and below
+SPARSE_CLOUD_POINTS_PER_MM = 18.0
 
 
 @dataclass(frozen=True)
@@ -203,7 +212,19 @@ def fit_calf(
     heights = _section_heights(b_mm, d_mm, options)
     sections = slice_polar(local, faces, heights, options.n_angles)
     valid = sections.valid
+    density = None
+    if faces is None:  # a cloud: its points per mm of the calf's height
+        density = float(np.count_nonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm)) / max(d_mm - b_mm, 1e-9))
+    covered = float(np.median(sections.coverage))
+    sparse = density is not None and covered < MIN_SECTOR_COVERAGE
     if valid.mean() < 0.9:
+        if sparse:
+            raise FitFailure(
+                FailureReason.TOO_SPARSE,
+                f"the cloud is too sparse to close the calf's cross-sections: a slab of it holds points in "
+                f"{covered:.0%} of the 5-degree sectors around the leg (median; {density:.1f} points per mm of the "
+                f"calf's height), and {valid.mean():.0%} of the sections could be closed; a cloud needs points in at "
+                f"least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan denser, or as a mesh")
         raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
     lap("resample")
 
@@ -212,9 +233,17 @@ def fit_calf(
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if not layer_sections.valid.all():
+        if sparse:
+            raise FitFailure(FailureReason.TOO_SPARSE, f"the cloud is too sparse to close a feature layer of the calf: "
+                             f"its slabs hold points in {covered:.0%} of the 5-degree sectors around the leg (median); "
+                             f"a cloud needs points in at least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan "
+                             "denser, or as a mesh")
         raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
     layer_girth = layer_sections.circumferences()
     tape = tape_girths(local, faces, layers_z[[0, 2, 4, 6]])
+    if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
+        fallback = layer_sections.tape_perimeters()[[0, 2, 4, 6]]
+        tape = np.where(np.isfinite(tape), tape, fallback)
     landmarks = Landmarks(
         B=Landmark(float(layers_z[0]), float(layer_girth[0])),
         B1=Landmark(float(layers_z[2]), float(layer_girth[2])),
@@ -262,6 +291,10 @@ def fit_calf(
     error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
     skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
     fit_warnings = []
+    if density is not None and density < SPARSE_CLOUD_POINTS_PER_MM:
+        fit_warnings.append(
+            f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
+            "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
     if skin.off_skin:
         fit_warnings.append(
             f"the surface stands up to {skin.max_mm:.1f} mm off the scan's skin: {skin.worst_ring_share:.0%} of its ring "

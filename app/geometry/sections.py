@@ -62,6 +62,22 @@ class PolarSections:
         """(k,) perimeter of each resampled contour (sum of chords, paper section 3.2), mm."""
         return polygon_perimeter(self.radii_mm, self.angles_rad)
 
+    def tape_perimeters(self) -> np.ndarray:
+        """(k,) perimeter of the convex hull of each resampled contour (a tape's reading
+        of it, scipy's ConvexHull: in 2-D its ``area`` is the perimeter), mm; NaN for
+        missing sections."""
+        from scipy.spatial import ConvexHull, QhullError
+
+        a = self.angles_rad
+        out = np.full(len(self.heights_mm), np.nan)
+        for k in np.flatnonzero(self.valid):  # a handful of layer sections
+            ring = np.column_stack([self.radii_mm[k] * np.cos(a), self.radii_mm[k] * np.sin(a)])
+            try:
+                out[k] = ConvexHull(ring).area
+            except QhullError:
+                continue
+        return out
+
     def mean_radii(self) -> np.ndarray:
         """(k,) mean radius of each contour, mm (``r_k`` of the error index, eq. 4)."""
         return self.radii_mm.mean(axis=1)

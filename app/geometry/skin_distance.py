@@ -10,8 +10,9 @@ surface densely over its whole domain (:data:`SAMPLES_AROUND` x one row per
 - a mesh: the exact distance to the nearest of the triangles around the sample's
   :data:`NEAREST_VERTICES` nearest vertices (Ericson 5.1.5, via
   :func:`app.geometry.surface_error.point_triangle_distances`);
-- a cloud: the distance to the nearest point (an upper bound: on the skin it is at
-  most about half the point spacing).
+- a cloud: the distance to the nearest point (an upper bound: on the skin it is up
+  to about the point spacing, so a cloud's off-skin threshold is :data:`OFF_SKIN_MM`
+  plus its median point spacing).
 
 Only samples **where the scan has data** count: a sample whose nearest skin point
 (the cloud's points; points every ~2 mm on a mesh's triangles) lies across the surface
@@ -159,21 +160,26 @@ def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray
     # the scan has skin here when its nearest skin lies across the surface (off it or on
     # it), not beside it (the rim of a hole, past a cropped end)
     counted = tangential <= TANGENT_SLACK_MM + np.abs(along_normal)
+    allowance = 0.0
     if faces is not None and len(faces):
         distance = _distances_to_mesh(samples[counted], points, faces)
     else:
         distance = np.linalg.norm(offset[counted], axis=1)
+        # on the skin, a sample's nearest point of a cloud is up to about the point
+        # spacing away: the off-skin threshold grows by the cloud's median spacing
+        some = skin[:: max(len(skin) // 5000, 1)]
+        allowance = float(np.median(cKDTree(skin).query(some, k=2)[0][:, 1])) if len(skin) > 1 else 0.0
     if not len(distance):
         return SkinDistance(float("nan"), float("nan"), float("nan"), 0.0, 0.0, float("nan"), float("nan"), 0)
     worst = int(np.argmax(distance))
     row = np.broadcast_to(np.arange(rows)[None, :], (SAMPLES_AROUND, rows)).ravel()[counted]
     per_ring = np.bincount(row, minlength=rows)
-    off = np.bincount(row, weights=(distance > OFF_SKIN_MM).astype(float), minlength=rows)
+    off = np.bincount(row, weights=(distance > OFF_SKIN_MM + allowance).astype(float), minlength=rows)
     share = np.divide(off, per_ring, out=np.zeros(rows), where=per_ring >= SAMPLES_AROUND // 4)
     ring = int(np.argmax(share))
     return SkinDistance(
         median_mm=float(np.median(distance)), p99_mm=float(np.percentile(distance, 99)), max_mm=float(distance[worst]),
-        coverage=float(counted.mean()), off_skin_share=float((distance > OFF_SKIN_MM).mean()),
+        coverage=float(counted.mean()), off_skin_share=float((distance > OFF_SKIN_MM + allowance).mean()),
         worst_height_mm=float(samples[counted][worst, 2]), worst_v=float(vv.ravel()[counted][worst]),
         n_samples=int(counted.sum()), worst_ring_share=float(share[ring]),
         worst_ring_height_mm=float(np.median(samples.reshape(SAMPLES_AROUND, rows, 3)[:, ring, 2])))

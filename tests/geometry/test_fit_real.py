@@ -131,3 +131,43 @@ def test_no_sole_without_a_foot(tmp_path):
     cut.export(path)
     cropped = fit_scan(load_scan(path))
     assert cropped.sole_mm is None and cropped.frame.anterior_cue != "foot"
+
+
+@pytest.mark.parametrize("n_points", [30_000, 12_000])
+def test_the_vertices_of_a_body_scan_as_a_sparse_cloud_fit(n_points):
+    """A scanner's export of its mesh's vertices without faces, 10-30k points over a
+    body: the slabs thicken with the spacing (up to 20 mm), the leg fits with its girths
+    near the mesh's, and the record says the cloud was sparse."""
+    import trimesh
+
+    from app.geometry.fit import FitOptions, fit_scan
+
+    scan = load_scan(REAL / "vh_male_skin.glb")
+    whole = fit_scan(scan, FitOptions(side="right")).landmarks.as_dict()
+    rng = np.random.default_rng(3)
+    cloud = scan.points_mm[rng.choice(len(scan.points_mm), n_points, replace=False)]
+    sparse = fit_scan(load_scan(trimesh.PointCloud(cloud).export(file_type="ply"), file_type="ply", units="mm"),
+                      FitOptions(side="right"))
+    for name in ("B", "C"):
+        assert abs(sparse.landmarks.as_dict()[name]["tape_girth_mm"] - whole[name]["tape_girth_mm"]) < 5.0, name
+    assert all(np.isfinite(v["tape_girth_mm"]) for v in sparse.landmarks.as_dict().values())
+    assert any("the cloud is sparse" in w for w in sparse.warnings)
+
+
+def test_a_cloud_too_sparse_to_close_its_sections_says_so():
+    """7k vertices over a body (its legs about 3 points per mm of height): too sparse to
+    close the calf's sections, refused as too_sparse with the coverage found - not as
+    not_a_leg."""
+    import trimesh
+
+    from app.geometry.errors import FitFailure
+    from app.geometry.fit import FitOptions, fit_scan
+
+    scan = load_scan(REAL / "vh_male_skin.glb")
+    rng = np.random.default_rng(0)
+    cloud = scan.points_mm[rng.choice(len(scan.points_mm), 7_000, replace=False)]
+    with pytest.raises(FitFailure) as caught:
+        fit_scan(load_scan(trimesh.PointCloud(cloud).export(file_type="ply"), file_type="ply", units="mm"),
+                 FitOptions(side="right"))
+    assert caught.value.reason.value == "too_sparse", caught.value.detail
+    assert "sectors" in caught.value.detail and "60%" in caught.value.detail
