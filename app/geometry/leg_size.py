@@ -13,7 +13,9 @@ Children's legs (under ~210 mm at the calf) are outside this service's range.
 
 The refusal names the unit that would make the calf most plausible: of mm, cm, m and
 inches, the one that puts the girth inside the band and closest (in ratio) to the
-ANSUR II median of 385 mm.  Units: mm.
+ANSUR II median of 385 mm.  A girth outside the band that no other unit explains is
+not refused here (a seated scan's thigh folded onto the calf reads 880 mm): units are
+not its problem, and the fit's own checks name what is.  Units: mm.
 """
 
 from __future__ import annotations
@@ -62,12 +64,15 @@ def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detecte
     girth = calf_girth_mm(points_calf, c_mm)
     if girth is None or MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM:
         return
+    other = likeliest_unit(girth, unit)
+    if other is None:
+        # no unit makes it a calf: not a question of units (a thigh folded onto the calf
+        # of a seated scan, a bandaged leg); the fit's own checks say what is wrong
+        return
     how = "detected from the scan's extent" if unit_detected else "as given"
     read = f"read in {UNIT_NAMES.get(unit, unit)} ({how})"
     detail = (f"the calf measures {girth:.0f} mm round at its widest, {read}; a human calf is "
               f"{MIN_CALF_GIRTH_MM:.0f}-{MAX_CALF_GIRTH_MM:.0f} mm round (ANSUR II adults, with a margin)")
-    other = likeliest_unit(girth, unit)
-    if other is not None:
-        detail += (f". The file is most likely in {UNIT_NAMES[other[0]]} (the calf would then be {other[1]:.0f} mm "
-                   f"round): upload it again with units={other[0]}")
+    detail += (f". The file is most likely in {UNIT_NAMES[other[0]]} (the calf would then be {other[1]:.0f} mm "
+               f"round): upload it again with units={other[0]}")
     raise FitFailure(FailureReason.IMPLAUSIBLE_SIZE, detail)
