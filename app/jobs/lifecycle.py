@@ -35,6 +35,7 @@ class ClaimedJob:
     file_format: str
     options: dict
     placement: dict | None
+    tenant_id: str | None = None
 
 
 #: a claim found a job that had used up its attempts (it is now failed)
@@ -71,7 +72,8 @@ def claim(sessions: sessionmaker[Session], store: ScanStore, owner: str, lease_s
                       "process died or was stopped); it is not tried again", owner=owner)
             return EXHAUSTED
         scan = ScanRepository(session).get(job.scan_id)
-        return ClaimedJob(job.id, str(store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement)
+        return ClaimedJob(job.id, str(store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement,
+                          job.tenant_id)
 
 
 def renew(sessions: sessionmaker[Session], owner: str, job_ids: list[str], lease_s: float) -> None:

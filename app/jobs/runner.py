@@ -28,6 +28,7 @@ Crash safety (every accepted job ends exactly once, as a record or a failure):
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import ctypes
 import ctypes.util
 import functools
@@ -38,6 +39,7 @@ import resource
 import signal
 import sys
 import time
+from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -60,6 +62,9 @@ log = logging.getLogger("calf_nurbs.runner")
 
 
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
+#: CPU priority (nice) of a clinic's second and later concurrent tasks: under CFS a task
+#: at nice 10 gets about a tenth of the CPU of a nice-0 task it competes with
+SECOND_TASK_NICE = 10
 
 
 def prepare_worker(limit_bytes: int, parent_pid: int) -> None:
@@ -157,6 +162,8 @@ class EmbeddedRunner:
         self._wakeup: asyncio.Event | None = None
         self._dispatcher: asyncio.Task | None = None
         self._running: dict[str, asyncio.Task] = {}
+        #: checks and fits running here, per tenant (their CPU priority: priority_for)
+        self._busy: Counter = Counter()
         self._renewed = 0.0
 
     # ------------------------------------------------------------------ lifecycle
@@ -211,6 +218,25 @@ class EmbeddedRunner:
             await asyncio.to_thread(self.enqueue, job_id)
         else:
             self.notify()
+
+    def priority_for(self, tenant_id: str | None) -> int:
+        """CPU priority of a new task of ``tenant_id``: 0 while the clinic has no other
+        check or fit running here, else SECOND_TASK_NICE - on a machine with as many
+        cores as workers, a clinic's second task then yields the CPU to another
+        clinic's first (measured: benchmarks/results/hostile.md), and with no one else
+        busy it runs at full speed all the same (nice only orders contention)."""
+        return 0 if not tenant_id or not self._busy[tenant_id] else SECOND_TASK_NICE
+
+    @contextlib.contextmanager
+    def busy(self, tenant_id: str | None):
+        """Count a task of ``tenant_id`` as running here while the block runs."""
+        if tenant_id:
+            self._busy[tenant_id] += 1
+        try:
+            yield
+        finally:
+            if tenant_id:
+                self._busy[tenant_id] -= 1
 
     async def run_in_worker(self, fn, *args, timeout: float | None = None):
         """Run a picklable function in the check pool (upload checks).  A broken pool is
@@ -295,8 +321,10 @@ class EmbeddedRunner:
         generation = self.fit_pool.generation
         fail = functools.partial(asyncio.to_thread, lifecycle.fail, self.sessions, self.owner, job.job_id)
         try:
-            outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
-                                              timeout=self.job_timeout_s)
+            nice = self.priority_for(job.tenant_id)
+            with self.busy(job.tenant_id):
+                outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
+                                                  nice, timeout=self.job_timeout_s)
         except FitFailure as failure:
             await fail(failure.reason.value, failure.detail)
             return failure.reason.value

@@ -17,6 +17,12 @@ Three bounds, each per tenant (a clinic):
   (default: all workers but one) (:meth:`app.db.repositories.JobRepository.claim_next`),
   so a clinic that uploads while another's queue is full finds a fit worker free.
 
+- **CPU**: a clinic's second concurrent check or fit runs at nice
+  :data:`app.jobs.runner.SECOND_TASK_NICE` (:meth:`app.jobs.runner.EmbeddedRunner.priority_for`):
+  with as many workers as cores, the first clinic's check and fit would otherwise take
+  both cores from another clinic's upload (measured 3.2x its idle time); nice orders
+  contention only, so a clinic alone still runs at full speed.
+
 With keys off (a service bound to localhost) every request is the one tenant
 ``default``: there is nothing to share, and the check and fit bounds default to every
 worker.  (Dramatiq workers take messages in the broker's order; the job bound

@@ -10,6 +10,7 @@ import contextlib
 import ctypes
 import ctypes.util
 import gc
+import os
 import time
 
 from app.geometry.errors import FailureReason, FitFailure
@@ -89,22 +90,37 @@ def warm_up() -> None:
     when the call arrives; the pools call it once per worker at start."""
 
 
+def set_priority(nice: int) -> None:
+    """Worker: run this task at CPU priority ``nice`` (0 normal; app.jobs.runner gives a
+    clinic's second concurrent task SECOND_TASK_NICE, so that on a busy machine another
+    clinic's task gets the CPU first).  Lowering it again needs root or CAP_SYS_NICE;
+    without them the worker keeps the higher value for its later tasks (never worse
+    than one clinic's tasks all at one priority)."""
+    try:
+        if os.getpriority(os.PRIO_PROCESS, 0) != nice:
+            os.setpriority(os.PRIO_PROCESS, 0, nice)
+    except OSError:
+        pass
+
+
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
-                       max_faces: int | None = None) -> dict:
+                       max_faces: int | None = None, nice: int = 0) -> dict:
     """Worker: read the scan and place its calf; raises FitFailure with the reason
     (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement, JSON."""
+    set_priority(nice)
     with worker_task():
         scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points,
                          max_faces=max_faces)
         return check_scan(scan, fit_options(options))
 
 
-def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None) -> dict:
+def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None, nice: int = 0) -> dict:
     """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}.
 
     ``placement``: what the upload check found (see app.geometry.fit.check_scan); the
     fit then skips locating the calf again.
     """
+    set_priority(nice)
     started = time.perf_counter()
     with worker_task():
         scan = load_scan(path, file_type=file_format, units=options.get("units"))
