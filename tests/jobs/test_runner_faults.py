@@ -75,11 +75,14 @@ def test_a_killed_check_worker_is_replaced_and_later_uploads_work(tmp_path):
 
 
 def test_a_worker_killed_mid_fit_is_retried_and_succeeds_once(tmp_path):
+    """The fit is an lsq 40 x 72 (about 3 s: the worker is surely still fitting when it
+    is killed; a 0.3 s paper fit could end first once the pool's workers were started
+    ahead of the first job)."""
     with TestClient(create_app(_settings(tmp_path))) as client:
         runner = client.app.state.runner
-        location = _upload(client, BODY, "model/gltf-binary", side="left")
+        location = _upload(client, BODY, "model/gltf-binary", side="left", mode="lsq", grid="40x72")
         _wait_running(client, location)
-        time.sleep(0.3)
+        time.sleep(0.05)
         _kill(runner.fit_pool.pids())
         job = wait_for_job(client, location, timeout=180)
         assert job["status"] == "succeeded" and job["attempts"] == 2
