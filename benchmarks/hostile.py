@@ -120,18 +120,19 @@ def upload_to_record(base: str, key: str, points: int) -> float:
         time.sleep(0.05)
 
 
+def new_key(env: dict, tenant: str, scopes: str = "upload,read,design") -> str:
+    """A new API key of ``tenant`` on the service whose environment (data directory) is ``env``."""
+    made = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", tenant, "--scopes", scopes],
+                          env={**os.environ, **env}, capture_output=True, text=True, check=True)
+    return made.stdout.strip().splitlines()[-1]
+
+
 def main(repeats: int = 3) -> dict:
     data_dir = Path(tempfile.mkdtemp(prefix="calf-hostile-"))
     env = {"CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "2", "CALF_AUTH": "required",
            "CALF_UPLOAD_RATE_LIMIT": "0", "CALF_RATE_LIMIT": "0", "CALF_LOG_LEVEL": "WARNING"}
 
-    def new_key(tenant: str, scopes: str) -> str:
-        # in the env of the service the key is for (its data directory)
-        made = subprocess.run([str(BIN / "calf-nurbs"), "keys", "create", "--tenant", tenant, "--scopes", scopes],
-                              env={**os.environ, **env}, capture_output=True, text=True, check=True)
-        return made.stdout.strip().splitlines()[-1]
-
-    hostile_key, other_key = new_key("hostile clinic", "upload,read,design"), new_key("other clinic", "upload,read,design")
+    hostile_key, other_key = (new_key(env, "hostile clinic"), new_key(env, "other clinic"))
     port = free_port()
     base = f"http://127.0.0.1:{port}"
     server = start(["serve", "--port", str(port)], env)
@@ -198,8 +199,7 @@ def main(repeats: int = 3) -> dict:
     flood_env = {k: v for k, v in env.items() if "RATE" not in k}
     flood_env["CALF_DATA_DIR"] = str(data_dir / "floods")
     (data_dir / "floods").mkdir()
-    env = flood_env
-    hostile_key, other_key = new_key("hostile clinic", "upload,read,design"), new_key("other clinic", "upload,read,design")
+    hostile_key, other_key = (new_key(flood_env, "hostile clinic"), new_key(flood_env, "other clinic"))
     port = free_port()
     base = f"http://127.0.0.1:{port}"
     server = start(["serve", "--port", str(port)], flood_env)

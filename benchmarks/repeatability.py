@@ -24,7 +24,6 @@ range p95 <= 8 mm at B1 and D; volume range p95 <= 0.5%.
 from __future__ import annotations
 
 import json
-import statistics
 import sys
 import time
 from pathlib import Path

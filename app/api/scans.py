@@ -125,8 +125,7 @@ async def upload_scan(
         started, outcome = time.perf_counter(), "runner_unavailable"
         try:
             async with request.app.state.check_gate.slot(principal.tenant_id):  # fair share of the check pool
-                nice = runner.priority_for(principal.tenant_id)
-                with runner.busy(principal.tenant_id):
+                with runner.busy(principal.tenant_id) as nice:
                     placement = await runner.run_in_worker(
                         validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
                         settings.max_scan_faces, nice, timeout=settings.validation_timeout_s

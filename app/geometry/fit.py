@@ -133,6 +133,16 @@ class FitResult:
         return (list(self.placement.warnings) if self.placement is not None else []) + list(self.fit_warnings)
 
 
+def _too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
+    """The refusal of a cloud too sparse to close ``what`` (module constants above)."""
+    return FitFailure(
+        FailureReason.TOO_SPARSE,
+        f"the cloud is too sparse to close {what}: a slab of it holds points in {covered:.0%} of the 5-degree sectors "
+        f"around the leg (median; {density:.1f} points per mm of the calf's height), and {closed:.0%} of the sections "
+        f"could be closed; a cloud needs points in at least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan denser, "
+        "or as a mesh")
+
+
 def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
     if options.section_spacing_mm:
         return np.arange(b, d + 1e-9, options.section_spacing_mm)
@@ -212,19 +222,13 @@ def fit_calf(
     heights = _section_heights(b_mm, d_mm, options)
     sections = slice_polar(local, faces, heights, options.n_angles)
     valid = sections.valid
-    density = None
-    if faces is None:  # a cloud: its points per mm of the calf's height
-        density = float(np.count_nonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm)) / max(d_mm - b_mm, 1e-9))
+    in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
+    density = None if faces is not None else len(in_calf) / max(d_mm - b_mm, 1e-9)  # a cloud's points per mm
     covered = float(np.median(sections.coverage))
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
     if valid.mean() < 0.9:
         if sparse:
-            raise FitFailure(
-                FailureReason.TOO_SPARSE,
-                f"the cloud is too sparse to close the calf's cross-sections: a slab of it holds points in "
-                f"{covered:.0%} of the 5-degree sectors around the leg (median; {density:.1f} points per mm of the "
-                f"calf's height), and {valid.mean():.0%} of the sections could be closed; a cloud needs points in at "
-                f"least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan denser, or as a mesh")
+            raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
         raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
     lap("resample")
 
@@ -234,10 +238,7 @@ def fit_calf(
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if not layer_sections.valid.all():
         if sparse:
-            raise FitFailure(FailureReason.TOO_SPARSE, f"the cloud is too sparse to close a feature layer of the calf: "
-                             f"its slabs hold points in {covered:.0%} of the 5-degree sectors around the leg (median); "
-                             f"a cloud needs points in at least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan "
-                             "denser, or as a mesh")
+            raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
         raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
     layer_girth = layer_sections.circumferences()
     tape = tape_girths(local, faces, layers_z[[0, 2, 4, 6]])
@@ -271,7 +272,6 @@ def fit_calf(
     )
     lap("feature_points")
 
-    in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
     if faces is None:
         in_calf = in_calf[:: -(-len(in_calf) // MAX_ERROR_POINTS)]
     lsq_fit = None

@@ -58,14 +58,16 @@ def girths(surface: NurbsSurface, heights: np.ndarray, n_around: int = 720) -> l
     u = u0 + (u1 - u0) * np.arange(n_around) / n_around
     v = np.linspace(v0, v1, n_along)
     pieces: list[tuple[np.ndarray, np.ndarray]] = []
+    full_chunk_faces = surface_grid_faces(n_around, ROWS_PER_CHUNK + 1)
     for start in range(0, n_along - 1, ROWS_PER_CHUNK):
         rows = v[start:min(start + ROWS_PER_CHUNK, n_along - 1) + 1]
+        faces = full_chunk_faces if len(rows) == ROWS_PER_CHUNK + 1 else surface_grid_faces(n_around, len(rows))
         vertices = evaluate_grid(surface, u, rows).reshape(-1, 3)
         low = np.searchsorted(sorted_planes, vertices[:, 2].min(), side="left")
         high = np.searchsorted(sorted_planes, vertices[:, 2].max(), side="right")
         if high <= low:
             continue
-        plane, segments = mesh_section_segments(vertices, surface_grid_faces(n_around, len(rows)), sorted_planes[low:high])
+        plane, segments = mesh_section_segments(vertices, faces, sorted_planes[low:high])
         pieces.append((plane + low, segments))
     plane = np.concatenate([p for p, _ in pieces]) if pieces else np.empty(0, dtype=np.int64)
     segments = np.concatenate([s for _, s in pieces]) if pieces else np.empty((0, 2, 2))

@@ -300,29 +300,16 @@ def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarra
     hull of the raw section would pick up at its outermost points, is averaged out.
     NaN where there is no section.
     """
-    from scipy.spatial import ConvexHull, QhullError
-
     from app.geometry.point_sections import slice_points_polar
 
     heights = np.asarray(heights, dtype=np.float64)
-    out = np.full(len(heights), np.nan)
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
         ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
         sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6)
     else:
         sections = slice_points_polar(points, heights, 360)
-    a = sections.angles_rad
-    contour = np.stack([sections.radii_mm * np.cos(a), sections.radii_mm * np.sin(a)], axis=-1)
-    for k, ring in enumerate(contour):  # a handful of landmark planes
-        if len(ring) < 3 or not np.isfinite(ring).all():
-            continue
-        try:
-            hull = ring[ConvexHull(ring).vertices]
-        except QhullError:
-            continue
-        out[k] = np.linalg.norm(np.roll(hull, -1, axis=0) - hull, axis=1).sum()
-    return out
+    return sections.tape_perimeters()
 
 
 def slice_polar(

@@ -153,7 +153,8 @@ def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray
     skin = skin[(skin[:, 2] >= low_mm - MARGIN_MM) & (skin[:, 2] <= high_mm + MARGIN_MM)]
     if not len(skin):
         return SkinDistance(float("nan"), float("nan"), float("nan"), 0.0, 0.0, float("nan"), float("nan"), 0)
-    _, nearest = cKDTree(skin).query(samples)
+    tree = cKDTree(skin)
+    _, nearest = tree.query(samples)
     offset = skin[nearest] - samples
     along_normal = np.einsum("ij,ij->i", offset, normal)
     tangential = np.linalg.norm(offset - along_normal[:, None] * normal, axis=1)
@@ -168,7 +169,7 @@ def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray
         # on the skin, a sample's nearest point of a cloud is up to about the point
         # spacing away: the off-skin threshold grows by the cloud's median spacing
         some = skin[:: max(len(skin) // 5000, 1)]
-        allowance = float(np.median(cKDTree(skin).query(some, k=2)[0][:, 1])) if len(skin) > 1 else 0.0
+        allowance = float(np.median(tree.query(some, k=2)[0][:, 1])) if len(skin) > 1 else 0.0
     if not len(distance):
         return SkinDistance(float("nan"), float("nan"), float("nan"), 0.0, 0.0, float("nan"), float("nan"), 0)
     worst = int(np.argmax(distance))

@@ -29,8 +29,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import ctypes
-import ctypes.util
 import functools
 import logging
 import multiprocessing
@@ -51,7 +49,7 @@ from app.errors import Unavailable
 from app.geometry.errors import FitFailure
 from app.jobs import lifecycle
 from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL, timeout_detail
-from app.services.fitting import fit_scan_file, warm_up
+from app.services.fitting import LIBC, fit_scan_file, warm_up
 from app.services.jobs import job_status_counts
 from app.services.storage import ScanStore
 
@@ -77,9 +75,8 @@ def prepare_worker(limit_bytes: int, parent_pid: int) -> None:
     process (the death signal follows the thread that forked)."""
     if limit_bytes > 0:
         resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
-    libc_name = ctypes.util.find_library("c")
-    if sys.platform.startswith("linux") and libc_name:
-        ctypes.CDLL(libc_name, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    if sys.platform.startswith("linux") and LIBC is not None:
+        LIBC.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
         if os.getppid() != parent_pid:  # the parent died before the signal was armed
             os._exit(1)
 
@@ -229,11 +226,13 @@ class EmbeddedRunner:
 
     @contextlib.contextmanager
     def busy(self, tenant_id: str | None):
-        """Count a task of ``tenant_id`` as running here while the block runs."""
+        """Count a task of ``tenant_id`` as running here while the block runs; yields
+        the task's CPU priority (:meth:`priority_for`, before it is counted)."""
+        nice = self.priority_for(tenant_id)
         if tenant_id:
             self._busy[tenant_id] += 1
         try:
-            yield
+            yield nice
         finally:
             if tenant_id:
                 self._busy[tenant_id] -= 1
@@ -321,8 +320,7 @@ class EmbeddedRunner:
         generation = self.fit_pool.generation
         fail = functools.partial(asyncio.to_thread, lifecycle.fail, self.sessions, self.owner, job.job_id)
         try:
-            nice = self.priority_for(job.tenant_id)
-            with self.busy(job.tenant_id):
+            with self.busy(job.tenant_id) as nice:
                 outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
                                                   nice, timeout=self.job_timeout_s)
         except FitFailure as failure:

@@ -1,8 +1,8 @@
 """Fair share of the machine between clinics: no clinic can hold the service from others.
 
-Three bounds, each per tenant (a clinic):
+Four bounds, each per tenant (a clinic):
 
-- **Jobs** (:meth:`JobBudget.check`): at most CALF_TENANT_MAX_JOBS of a tenant's jobs
+- **Jobs** (:meth:`app.services.jobs.JobService.ensure_capacity`): at most CALF_TENANT_MAX_JOBS of a tenant's jobs
   queued or running at once - uploads' fits and populations' refits alike.  Past it the
   upload (or the population's extra refits) is refused with 429 ``too_many_jobs`` and
   Retry-After, before the scan is received or checked.
@@ -16,7 +16,6 @@ Three bounds, each per tenant (a clinic):
   fewest running fits, and none of a tenant already running CALF_TENANT_MAX_FITS
   (default: all workers but one) (:meth:`app.db.repositories.JobRepository.claim_next`),
   so a clinic that uploads while another's queue is full finds a fit worker free.
-
 - **CPU**: a clinic's second concurrent check or fit runs at nice
   :data:`app.jobs.runner.SECOND_TASK_NICE` (:meth:`app.jobs.runner.EmbeddedRunner.priority_for`):
   with as many workers as cores, the first clinic's check and fit would otherwise take
@@ -25,8 +24,8 @@ Three bounds, each per tenant (a clinic):
 
 With keys off (a service bound to localhost) every request is the one tenant
 ``default``: there is nothing to share, and the check and fit bounds default to every
-worker.  (Dramatiq workers take messages in the broker's order; the job bound
-  above bounds what one clinic can put ahead of another there.)
+worker.  (Dramatiq workers take messages in the broker's order; the job bound above
+bounds what one clinic can put ahead of another there.)
 """
 
 from __future__ import annotations

@@ -19,8 +19,9 @@ from app.geometry.lsq import LsqGrid
 from app.geometry.record import record_from_fit
 from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
 
+#: the C library (malloc_trim here, prctl in app.jobs.runner), None where there is none
 _LIBC_NAME = ctypes.util.find_library("c")
-_LIBC = ctypes.CDLL(_LIBC_NAME) if _LIBC_NAME and hasattr(ctypes.CDLL(_LIBC_NAME), "malloc_trim") else None
+LIBC = ctypes.CDLL(_LIBC_NAME, use_errno=True) if _LIBC_NAME else None
 DEFAULT_POINTS = 15
 DEFAULT_GRID = "7x15"
 #: surface modes an upload may ask for ("paper_stacked" is a study of the paper's text,
@@ -81,8 +82,8 @@ def worker_task():
                          "plenty) and upload it again") from None
     finally:
         gc.collect()
-        if _LIBC is not None:
-            _LIBC.malloc_trim(0)
+        if LIBC is not None and hasattr(LIBC, "malloc_trim"):  # glibc
+            LIBC.malloc_trim(0)
 
 
 def warm_up() -> None:
