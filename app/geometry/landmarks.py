@@ -22,7 +22,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import find_peaks
 
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import FailureReason, FitFailure, FootFound
 
 #: Gaussian smoothing of the circumference profile, mm
 PROFILE_SMOOTHING_MM = 4.0
@@ -62,6 +62,16 @@ EDGE_REACH_MM = 15.0
 #: than a parabola above its minimum, puts the vertex 10-20 mm too far out, so the
 #: depth is the surer test at the ankle.
 TAPE_RESOLUTION_MM = 2.0
+#: an interior waist (B, D) is the vertex of the least-squares parabola fitted to the
+#: unsmoothed girth within WAIST_FIT_MM of the profile's lowest section (statistics:
+#: the lowest single section of a flat waist moves with the noise of the sections
+#: around it - D moved up to 9 mm between re-scans of one leg - while the vertex of a
+#: fit to the ~40 sections of +-20 mm averages that noise; anatomy: the ankle and knee
+#: waists are smooth minima, within 20 mm of which the girth rises 1-5 mm, enough to
+#: measure the curvature and still parabolic).  The vertex is used only when the window
+#: lies wholly inside the scan and the search window, and it falls within
+#: WAIST_FIT_MM / 2 of the lowest section; otherwise the lowest section stays
+WAIST_FIT_MM = 20.0
 #: the ankle B is the narrowest section of the leg above the foot (anthropometry: the
 #: minimum leg girth, ISO 8559-1 5.3.23); a candidate B with a leg section more than
 #: this fraction narrower below it is a knee waist (the scan starts above the ankle,
@@ -83,6 +93,14 @@ FOOT_RATIO = 1.3
 MAX_CALF_ELONGATION = 1.35
 
 LANDMARK_NAMES = ("B", "B1", "C", "D")
+
+#: a landmark's confidence from its height tolerance (:func:`height_tolerances`):
+#: "high" up to 10 mm (the reproducibility of a measuring point placed by hand on the
+#: skin, ~1 cm in anthropometric practice), "medium" up to 25 mm (still inside the
+#: 50 mm bands over which a compression garment's pressure is graded), "low" beyond, or
+#: when the landmark was taken at the scan's or its search window's edge
+HIGH_CONFIDENCE_MM = 10.0
+MEDIUM_CONFIDENCE_MM = 25.0
 
 
 @dataclass(frozen=True)
@@ -106,6 +124,21 @@ class Landmarks:
     b_at_scan_edge: bool = False  # the scan starts at (or just above) the ankle minimum
     d_at_scan_edge: bool = False  # the scan ends at (or just below) the knee waist
     tape_girths_mm: dict = None  # name -> convex-hull (tape) girth of the section, mm
+    tolerances_mm: dict = None  # name -> height tolerance (:func:`height_tolerances`), mm
+
+    def at_edge(self, name: str) -> bool:
+        """Was the landmark taken at the scan's edge (B, D) or its window's edge (D)?"""
+        return bool((name == "B" and self.b_at_scan_edge)
+                    or (name == "D" and (self.d_at_scan_edge or self.d_at_window_edge)))
+
+    def confidence(self, name: str) -> str | None:
+        """high | medium | low (see :data:`HIGH_CONFIDENCE_MM`), None without tolerances."""
+        if not self.tolerances_mm:
+            return None
+        if self.at_edge(name):
+            return "low"
+        tolerance = self.tolerances_mm[name]
+        return "high" if tolerance <= HIGH_CONFIDENCE_MM else "medium" if tolerance <= MEDIUM_CONFIDENCE_MM else "low"
 
     def as_dict(self) -> dict:
         out = {}
@@ -115,6 +148,9 @@ class Landmarks:
             if self.tape_girths_mm:
                 entry["tape_girth_mm"] = self.tape_girths_mm[name]
             entry["at_scan_edge"] = bool((name == "B" and self.b_at_scan_edge) or (name == "D" and self.d_at_scan_edge))
+            if self.tolerances_mm:
+                entry["height_tolerance_mm"] = self.tolerances_mm[name]
+                entry["confidence"] = self.confidence(name)
             out[name] = entry
         return out
 
@@ -229,12 +265,37 @@ def _check_candidate(heights, g, raw, ok, local_min, ic, bottom, top, spacing) -
             FailureReason.NO_KNEE,
             "the minimum above the calf is not thicker than the ankle: no knee in the scanned range",
         )
+    z_b = float(heights[ib]) if b_edge else waist_vertex(heights, raw, ib, max(bottom, zc - ANKLE_BELOW_CALF_MM[1]), zc)
+    z_d = float(heights[id_]) if d_edge else waist_vertex(heights, raw, id_, lo, min(top, hi))
     return FeatureHeights(
-        float(heights[ib]), float(zc), float(heights[id_]),
-        float(g[ib]), float(g[ic]), float(g[id_]),
+        z_b, float(zc), z_d,
+        float(np.interp(z_b, heights, g)), float(g[ic]), float(np.interp(z_d, heights, g)),
         bool(heights[id_] - lo < 2 * spacing) and not d_edge,
         b_edge, d_edge,
     )
+
+
+def waist_vertex(heights: np.ndarray, raw: np.ndarray, index: int, low_mm: float, high_mm: float) -> float:
+    """Height of a waist (B or D) from the girth around its lowest section, mm.
+
+    The vertex of the least-squares parabola fitted to the unsmoothed girth ``raw``
+    (k,) within :data:`WAIST_FIT_MM` of ``heights[index]`` (see there why), when that
+    window lies inside [low_mm, high_mm] (the scan and the landmark's search window),
+    holds at least 10 measured sections, curves upwards and puts its vertex within half
+    the window of the lowest section; otherwise ``heights[index]``.  heights (k,)
+    ascending, mm.
+    """
+    z0 = float(heights[index])
+    if z0 - WAIST_FIT_MM < low_mm or z0 + WAIST_FIT_MM > high_mm:
+        return z0
+    near = (np.abs(heights - z0) <= WAIST_FIT_MM) & np.isfinite(raw)
+    if near.sum() < 10:
+        return z0
+    c, b, _ = np.polyfit(heights[near] - z0, raw[near], 2)
+    if c <= 0:
+        return z0
+    offset = -b / (2.0 * c)
+    return z0 + float(offset) if abs(offset) <= WAIST_FIT_MM / 2 else z0
 
 
 def _minimum_reached_at_edge(heights: np.ndarray, raw: np.ndarray, edge: float, inward: int) -> bool:
@@ -313,15 +374,15 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
             if elongation is not None and elongation[ic] > MAX_CALF_ELONGATION:
-                outcome = _no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as long "
-                                   "as it is wide: a foot, not a calf")
+                outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as "
+                                             "long as it is wide: a foot, not a calf").detail, float(g[ic]))
             else:
                 outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
             if isinstance(outcome, FitFailure):
                 # among ankles missing, the lowest bulge (the calf is the first bulge above
                 # the ankle); otherwise the largest
                 rank = -float(heights[ic]) if outcome.reason is FailureReason.NO_ANKLE else float(g[ic])
-                failures.append((FAILURE_STAGE[outcome.reason], rank, outcome))
+                failures.append((failure_stage(outcome), rank, outcome))
             else:
                 valid.append((int(ic), outcome))
         if valid:
@@ -380,6 +441,13 @@ def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, hig
 FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
 
 
+def failure_stage(failure: FitFailure) -> float:
+    """How informative a candidate's refusal is: :data:`FAILURE_STAGE`, and a found foot
+    (:class:`FootFound`) between a missing ankle and a missing knee (it identified the
+    bulge; a missing ankle only did not find one below it; a missing knee found both)."""
+    return 1.5 if isinstance(failure, FootFound) else FAILURE_STAGE.get(failure.reason, 0)
+
+
 def _no_ankle(span_mm: float) -> FitFailure:
     return FitFailure(
         FailureReason.NO_ANKLE,
@@ -434,6 +502,39 @@ def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float) 
     i = above[0]
     h0, h1, g0, g1 = heights[i - 1], heights[i], g[i - 1], g[i]
     return float(h0 + (level - g0) / (g1 - g0) * (h1 - h0)) if g1 > g0 else float(h1)
+
+
+def height_tolerances(heights: np.ndarray, girth: np.ndarray, marks_mm: dict) -> dict:
+    """How sharply the profile places each landmark: its height tolerance, mm.
+
+    The heights around a landmark whose smoothed girth a tape cannot tell from the
+    landmark's own (within :data:`CROWN_FRACTION` of it, at least 1 mm: the tolerance
+    that defines C's crown) could hold the landmark as well; the tolerance is half the
+    length of that connected run for C and B1, and its length on the inner side for B
+    and D (the profile is measured from B to D only; the ankle and knee waists are
+    nearly symmetric).  A steep B1 is placed to ~1 mm, a flat calf's C or a long knee
+    waist's D to tens of millimetres: their girths are sure, their heights are not.
+
+    heights (k,) ascending from B to D, girth (k,) mm (NaN where missing); ``marks_mm``
+    name -> height, mm.  Returns name -> tolerance, mm.
+    """
+    g = smooth_profile(heights, girth)
+    out = {}
+    for name, z in marks_mm.items():
+        i = int(np.clip(np.searchsorted(heights, z), 0, len(heights) - 1))
+        level = np.interp(z, heights, g)
+        same = np.abs(g - level) <= max(CROWN_FRACTION * level, 1.0)
+        same[i] = True
+        breaks = np.flatnonzero(~same)
+        start = heights[breaks[breaks < i].max() + 1] if (breaks < i).any() else heights[0]
+        stop = heights[breaks[breaks > i].min() - 1] if (breaks > i).any() else heights[-1]
+        if name == "B":
+            out[name] = float(stop - z)
+        elif name == "D":
+            out[name] = float(z - start)
+        else:
+            out[name] = float(0.5 * (stop - start))
+    return out
 
 
 def layer_heights(b: float, b1: float, c: float, d: float) -> np.ndarray:

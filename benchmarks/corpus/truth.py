@@ -127,17 +127,43 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
         runs = np.split(crown, np.flatnonzero(np.diff(crown) > 1) + 1)
         run = next((r for r in runs if r[0] <= ic <= r[-1]), np.array([ic]))
         ic = int(run[np.argmin(np.abs(heights[run] - 0.5 * (heights[run[0]] + heights[run[-1]])))])
+    # B and D: the vertex of the least-squares parabola over the unsmoothed girth within
+    # WAIST_FIT_MM of the lowest section (the service's rule since 2026-12: a flat
+    # waist's lowest single section moves with the noise), when the window is measured
+    b_mm, d_mm = _waist(heights, girth, ib), _waist(heights, girth, id_)
     between = np.arange(ib + 1, ic)
     risen = between[g[between] >= 0.5 * (g[ib] + g[ic])]
     ib1 = int(risen[0]) if risen.size else (ib + ic) // 2
     index = {"B": ib, "B1": ib1, "C": ic, "D": id_}
+    at = {k: float(heights[i]) for k, i in index.items()} | {"B": b_mm, "D": d_mm}
+    if (b_mm, d_mm) != (heights[ib], heights[id_]):  # the waists' own sections, measured where they are
+        girth_bd, centre_bd = _hull_profile(mesh, origin, axis, np.array([b_mm, d_mm]))
+    else:
+        girth_bd, centre_bd = girth[[ib, id_]], centre[[ib, id_]]
+    girths = {k: float(girth[i]) for k, i in index.items()} | {"B": float(girth_bd[0]), "D": float(girth_bd[1])}
+    points = {k: centre[i] for k, i in index.items()} | {"B": centre_bd[0], "D": centre_bd[1]}
     return LegTruth(
-        heights_mm={k: float(heights[i] - heights[ib]) for k, i in index.items()},
-        girths_mm={k: float(girth[i]) for k, i in index.items()},
-        points_mm={k: centre[i] for k, i in index.items()},
+        heights_mm={k: at[k] - b_mm for k in index},
+        girths_mm=girths,
+        points_mm=points,
         axis=axis,
         knee_hidden=knee_hidden,
     )
+
+
+#: half-width of the waist parabola, mm (app.geometry.landmarks.WAIST_FIT_MM says why)
+WAIST_FIT_MM = 20.0
+
+
+def _waist(heights: np.ndarray, girth: np.ndarray, index: int) -> float:
+    """Vertex height of the parabola fitted to ``girth`` within WAIST_FIT_MM of ``index``."""
+    z0 = float(heights[index])
+    near = (np.abs(heights - z0) <= WAIST_FIT_MM) & np.isfinite(girth)
+    if z0 - WAIST_FIT_MM < heights[0] or z0 + WAIST_FIT_MM > heights[-1] or near.sum() < 10:
+        return z0
+    c, b, _ = np.polyfit(heights[near] - z0, girth[near], 2)
+    offset = -b / (2.0 * c) if c > 0 else np.inf
+    return z0 + float(offset) if abs(offset) <= WAIST_FIT_MM / 2 else z0
 
 
 def quick_girths(vertices_dm: np.ndarray) -> tuple[float, float]:

@@ -33,3 +33,57 @@ def test_a_waist_at_the_edge_is_reached_when_near_or_too_shallow_for_a_tape(beyo
 def test_a_girth_that_rises_from_the_edge_has_its_minimum_inside():
     heights = np.arange(0.0, 40.5, 1.0)
     assert _minimum_reached_at_edge(heights, 220.0 + 0.05 * (heights - 10.0) ** 2, 0.0, +1)
+
+
+# --- the waists' vertex and every landmark's height tolerance -------------------------
+
+from app.geometry.landmarks import (  # noqa: E402
+    HIGH_CONFIDENCE_MM,
+    WAIST_FIT_MM,
+    height_tolerances,
+    waist_vertex,
+)
+
+
+def _noisy_waist(rng, vertex_mm: float, noise_mm: float = 0.3):
+    """A knee waist 0..300 mm: 330 mm round at ``vertex_mm``, rising 0.004 mm/mm^2 (a
+    flat waist: 1.6 mm over +-20 mm), with ``noise_mm`` of girth noise per section."""
+    heights = np.arange(0.0, 300.5, 1.0)
+    girth = 330.0 + 0.004 * (heights - vertex_mm) ** 2 + rng.normal(0.0, noise_mm, heights.size)
+    return heights, girth
+
+
+def test_the_waist_vertex_moves_less_with_noise_than_the_lowest_section():
+    """Over 200 re-draws of the noise, the parabola's vertex stays within 1.5 mm of the
+    true waist (p95) where the lowest single section wanders several times as far."""
+    rng = np.random.default_rng(4)
+    vertex_errors, lowest_errors = [], []
+    for _ in range(200):
+        heights, girth = _noisy_waist(rng, 150.0)
+        lowest = int(np.argmin(girth))
+        vertex_errors.append(waist_vertex(heights, girth, lowest, 0.0, 300.0) - 150.0)
+        lowest_errors.append(heights[lowest] - 150.0)
+    vertex_p95 = np.percentile(np.abs(vertex_errors), 95)
+    lowest_p95 = np.percentile(np.abs(lowest_errors), 95)
+    assert vertex_p95 < 1.5
+    assert lowest_p95 > 3 * vertex_p95
+
+
+def test_a_waist_whose_window_leaves_the_scan_keeps_its_lowest_section():
+    rng = np.random.default_rng(5)
+    heights, girth = _noisy_waist(rng, 10.0)
+    lowest = int(np.argmin(girth))
+    assert heights[lowest] < WAIST_FIT_MM
+    assert waist_vertex(heights, girth, lowest, 0.0, 300.0) == heights[lowest]
+
+
+def test_tolerances_are_long_on_a_flat_crown_and_short_on_a_steep_rise():
+    """A calf profile B (0) - B1 (steep rise) - C (a crown flat within 0.5% over 60 mm)."""
+    heights = np.arange(0.0, 360.5, 1.0)
+    rise = 1.0 / (1.0 + np.exp(-(heights - 100.0) / 15.0))
+    crown = np.where(np.abs(heights - 230.0) < 30.0, 0.0, -0.002 * (np.abs(heights - 230.0) - 30.0) ** 2)
+    girth = 220.0 + 170.0 * rise + crown
+    tolerances = height_tolerances(heights, girth, {"B": 0.0, "B1": 100.0, "C": 230.0})
+    assert tolerances["B1"] < 2.0
+    assert tolerances["C"] > 25.0
+    assert tolerances["B1"] <= HIGH_CONFIDENCE_MM
