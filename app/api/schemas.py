@@ -26,6 +26,12 @@ class Landmark(BaseModel):
     at_scan_edge: bool = Field(
         False, description="B or D was taken at the scan's edge (the scan starts at the ankle minimum or ends "
         "at the knee waist); see warnings")
+    height_tolerance_mm: float | None = Field(
+        None, ge=0, le=10 * MAX_CONTROL_MM, description="heights within this distance of the landmark have a girth a "
+        "tape cannot tell from its own: how sharply the profile places it (absent in records fitted before 2026-12)")
+    confidence: Literal["high", "medium", "low"] | None = Field(
+        None, description="high: tolerance <= 10 mm; medium: <= 25 mm; low: beyond, or taken at the scan's or its "
+        "search window's edge (then a warning says why)")
 
 
 class SideInference(BaseModel):
@@ -128,6 +134,8 @@ class LandmarkGirth(GirthOut):
     scan_circumference_mm: float = Field(description="the girth measured on the scan when the record was fitted")
     scan_tape_girth_mm: float | None = Field(None, description="the tape girth measured on the scan (record version 2)")
     at_scan_edge: bool = Field(False, description="the landmark lies at the scan's edge (see warnings)")
+    height_tolerance_mm: float | None = Field(None, description="how sharply the scan's profile places the landmark, mm")
+    confidence: str | None = Field(None, description="high | medium | low (see the record's landmarks)")
 
 
 class MeasurementsOut(BaseModel):

@@ -24,7 +24,9 @@ from app.geometry.feature_points import candidate_angles, radii_at, shared_angle
 from app.geometry.landmarks import (
     Landmark,
     Landmarks,
+    LANDMARK_NAMES,
     b1_height,
+    height_tolerances,
     layer_heights,
 )
 from app.geometry.lsq import LsqFit, LsqGrid, fit_lsq_surface
@@ -143,6 +145,36 @@ def _too_sparse(what: str, covered: float, density: float, closed: float) -> Fit
         "or as a mesh")
 
 
+#: a sparse cloud's feature layer whose own slab cannot be closed is interpolated from
+#: the closed calf sections at most this far above and below it, mm: the reach of a
+#: sparse cloud's slab (app.geometry.point_sections.MAX_HALF_MM), over which a leg's
+#: section changes smoothly (girth slope at most ~1 mm per mm)
+LAYER_BRIDGE_MM = 10.0
+
+
+def bridge_layers(layers: PolarSections, sections: PolarSections) -> PolarSections:
+    """``layers`` with each missing row linearly interpolated (centroid and radii on the
+    shared rays) between the nearest closed rows of ``sections`` below and above it,
+    when both lie within :data:`LAYER_BRIDGE_MM`; other rows as they are.  Both (k, a)
+    on the same ``a`` rays, heights in mm."""
+    radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
+    closed = np.flatnonzero(sections.valid)
+    z = sections.heights_mm[closed]
+    for row in np.flatnonzero(~layers.valid):  # at most the 7 layers
+        h = layers.heights_mm[row]
+        below, above = closed[z <= h], closed[z >= h]
+        if not below.size or not above.size:
+            continue
+        lo, hi = below[-1], above[0]
+        z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
+        if h - z_lo > LAYER_BRIDGE_MM or z_hi - h > LAYER_BRIDGE_MM:
+            continue
+        t = 0.0 if z_hi == z_lo else (h - z_lo) / (z_hi - z_lo)
+        radii[row] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
+        centres[row] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
+    return dataclasses.replace(layers, radii_mm=radii, centroids_mm=centres)
+
+
 def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
     if options.section_spacing_mm:
         return np.arange(b, d + 1e-9, options.section_spacing_mm)
@@ -236,6 +268,8 @@ def fit_calf(
     b1_mm = b1_height(heights, girth, b_mm, c_mm)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
+    if sparse and not layer_sections.valid.all():
+        layer_sections = bridge_layers(layer_sections, sections)
     if not layer_sections.valid.all():
         if sparse:
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
@@ -255,6 +289,7 @@ def fit_calf(
         b_at_scan_edge=edges[0],
         d_at_scan_edge=edges[1],
         tape_girths_mm={name: float(g) for name, g in zip(("B", "B1", "C", "D"), tape)},
+        tolerances_mm=height_tolerances(heights, girth, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]]))),
     )
     lap("landmarks")
 
@@ -295,6 +330,13 @@ def fit_calf(
         fit_warnings.append(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
             "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
+    for name in LANDMARK_NAMES:
+        tolerance = landmarks.tolerances_mm[name]
+        if not landmarks.at_edge(name) and landmarks.confidence(name) == "low":
+            fit_warnings.append(
+                f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "
+                f"of {name}'s over that length, so {name}'s girth is sure but its height (and the lengths and layers "
+                "measured from it) is not")
     if skin.off_skin:
         fit_warnings.append(
             f"the surface stands up to {skin.max_mm:.1f} mm off the scan's skin: {skin.worst_ring_share:.0%} of its ring "

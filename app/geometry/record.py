@@ -13,7 +13,8 @@ JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")
     scan      {units, format, n_points, anterior_cue, sole_mm}: sole_mm, when the foot is
               in the scan, is the calf-frame z of its lowest point (the floor under a
               standing person; heights above the floor are height_mm - sole_mm)
-    landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge}}
+    landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge,
+              height_tolerance_mm, confidence}}
               (calf-frame z; B = 0).  circumference_mm is the perimeter of the section
               (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
               (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
@@ -288,6 +289,18 @@ def parse_record(data: dict) -> CalfRecord:
             clean_landmarks[name]["tape_girth_mm"] = tape
         if "at_scan_edge" in entry:
             clean_landmarks[name]["at_scan_edge"] = bool(entry["at_scan_edge"])
+        if entry.get("height_tolerance_mm") is not None:
+            try:
+                tolerance = float(entry["height_tolerance_mm"])
+            except (TypeError, ValueError) as exc:
+                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be a number") from exc
+            if not math.isfinite(tolerance) or tolerance < 0:
+                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be finite and not negative")
+            clean_landmarks[name]["height_tolerance_mm"] = tolerance
+        if entry.get("confidence") is not None:
+            if entry["confidence"] not in ("high", "medium", "low"):
+                raise _invalid(f"landmarks.{name}.confidence must be 'high', 'medium' or 'low'")
+            clean_landmarks[name]["confidence"] = entry["confidence"]
     side = data.get("side")
     if side not in (None, "left", "right"):
         raise _invalid("side must be 'left', 'right' or null")

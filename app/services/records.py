@@ -120,6 +120,8 @@ class RecordService:
                 "scan_circumference_mm": parsed.landmarks[name]["circumference_mm"],
                 "scan_tape_girth_mm": parsed.landmarks[name].get("tape_girth_mm"),
                 "at_scan_edge": bool(parsed.landmarks[name].get("at_scan_edge", False)),
+                "height_tolerance_mm": parsed.landmarks[name].get("height_tolerance_mm"),
+                "confidence": parsed.landmarks[name].get("confidence"),
             }
             for name, g in zip(names, measured[: len(names)])
         }

@@ -171,3 +171,22 @@ def test_a_cloud_too_sparse_to_close_its_sections_says_so():
                  FitOptions(side="right"))
     assert caught.value.reason.value == "too_sparse", caught.value.detail
     assert "sectors" in caught.value.detail and "60%" in caught.value.detail
+
+
+@pytest.mark.parametrize("file,side", REAL_LEGS)
+def test_every_landmark_says_how_sharply_the_scan_places_it(file, side):
+    """Each landmark carries its height tolerance and a confidence; B1, on the steepest
+    part of the rise, is placed to a few mm; a D taken at its search window's edge is
+    low, and a low confidence of another cause is a warning."""
+    _, result = fitted(file, side)
+    lm = result.landmarks
+    entries = lm.as_dict()
+    for name, entry in entries.items():
+        assert entry["height_tolerance_mm"] >= 0.0
+        assert entry["confidence"] in ("high", "medium", "low")
+    assert entries["B1"]["height_tolerance_mm"] < 5.0 and entries["B1"]["confidence"] == "high"
+    if lm.d_at_window_edge:
+        assert entries["D"]["confidence"] == "low"
+    for name, entry in entries.items():
+        if entry["confidence"] == "low" and not lm.at_edge(name):
+            assert any(w.startswith(f"{name}'s height is uncertain") for w in result.warnings)

@@ -124,6 +124,10 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     assert "B above the floor" in page.locator("#lengths").inner_text()  # the foot is in this scan
     girth_c = float(page.locator("#measurement-sheet tr[data-landmark=C] td").nth(1).inner_text().split()[0])
     assert 360 < girth_c < 400, sheet  # the BodyParts3D calf: 378 mm by tape
+    for name in ("B", "B1", "C", "D"):  # how sharply each height is placed, from the record
+        placed = page.locator(f"#measurement-sheet tr[data-landmark={name}] td.confidence")
+        assert placed.get_attribute("data-confidence") in ("high", "medium", "low")
+    assert page.locator("#measurement-sheet tr[data-landmark=B1] td.confidence").get_attribute("data-confidence") == "high"
     page.get_by_label("Girth at a height above B").fill("100")
     page.get_by_role("button", name="Measure").click()
     page.locator("#height-answer").filter(has_text="tape girth").wait_for()

@@ -212,11 +212,13 @@ async function recordScreen(id) {
 function measurementSheet(record, measure) {
   const lm = measure.landmarks;
   const table = h('table', { id: 'measurement-sheet' }, h('caption', { class: 'muted', text: 'Measured on the surface; the scan values in brackets' }),
-    h('thead', {}, h('tr', {}, ['', 'height above B mm', 'tape girth mm', 'section perimeter mm'].map((t, i) => h('th', { class: i ? 'num' : null, text: t })))),
+    h('thead', {}, h('tr', {}, ['', 'height above B mm', 'tape girth mm', 'section perimeter mm', 'height placed'].map((t, i) => h('th', { class: i && i < 4 ? 'num' : null, text: t })))),
     h('tbody', {}, LANDMARKS.filter((n) => lm[n]).map((n) => h('tr', { 'data-landmark': n }, h('th', { text: n }),
       h('td', { class: 'num', text: mm(lm[n].height_mm) }),
       h('td', { class: 'num', text: `${mm(lm[n].tape_circumference_mm)} (${mm(lm[n].scan_tape_girth_mm)})` }),
-      h('td', { class: 'num', text: `${mm(lm[n].circumference_mm)} (${mm(lm[n].scan_circumference_mm)})` })))));
+      h('td', { class: 'num', text: `${mm(lm[n].circumference_mm)} (${mm(lm[n].scan_circumference_mm)})` }),
+      h('td', { class: `confidence ${lm[n].confidence ?? ''}`, 'data-confidence': lm[n].confidence ?? '',
+        text: lm[n].confidence ? `${lm[n].confidence} (±${mm(lm[n].height_tolerance_mm)} mm)` : 'not recorded' })))));
   const floor = measure.above_floor_mm ? Object.entries(measure.above_floor_mm).map(([k, v]) => [`${k} above the floor`, v]) : [];
   const lengths = h('dl', { class: 'sheet', id: 'lengths' }, [...Object.entries(measure.lengths_mm), ...floor]
     .flatMap(([k, v]) => [h('dt', { text: k }), h('dd', { text: `${mm(v)} mm` })]));
