@@ -232,12 +232,27 @@ class LegCut:
     up: np.ndarray
 
 
-def split_body_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut]:
+def body_end_pixel(spacing_p95_mm: float) -> float:
+    """Occupancy pixel (mm) for the blobs of a body's end slab: 10 mm, or the 95th
+    percentile of the point spacing when that is larger.  Points at most one pixel
+    apart fall in touching cells, and the grid's closing bridges one more empty pixel,
+    so one foot stays one blob; two feet stand 60 mm or more apart at the ankles (the
+    shins' test above), which a pixel up to 30 mm (the coarsest meshes the service
+    accepts for bodies) still leaves at least one empty pixel between."""
+    return max(10.0, float(spacing_p95_mm))
+
+
+def split_body_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -> tuple[LegCut, LegCut]:
     """Cut the two legs out of a whole-body scan (see module docstring).
 
-    points_mm (n, 3).  Returns the two legs in arbitrary order, each with the unit
-    ``up`` vector (feet -> head).  Raises FitFailure SIDE_NOT_FOUND when the feet or two
-    separate legs cannot be found.
+    points_mm (n, 3); ``spacing_p95_mm`` the 95th percentile of its point spacing, when
+    known.  Returns the two legs in arbitrary order, each with the unit ``up`` vector
+    (feet -> head).  Raises FitFailure SIDE_NOT_FOUND when the feet or two separate legs
+    cannot be found.
+
+    The feet are the end whose slab holds two blobs.  The occupancy pixel scales with the
+    point spacing (:func:`body_end_pixel`): a fixed 10 mm pixel breaks a coarse mesh's
+    feet (vertices 20-40 mm apart) into specks that are not counted as blobs.
     """
     centre = points_mm.mean(axis=0)
     basis = perpendicular_basis(principal_axis(points_mm))
@@ -245,9 +260,16 @@ def split_body_legs(points_mm: np.ndarray) -> tuple[LegCut, LegCut]:
     h = local[:, 2]
     lo, hi = h.min(), h.max()
     length = hi - lo
-    slab = 0.05 * length
-    blobs_low = _slab_blob_count(local[h < lo + slab, :2])
-    blobs_high = _slab_blob_count(local[h > hi - slab, :2])
+    if spacing_p95_mm is None:
+        from app.geometry.cleanup import point_spacing
+
+        spacing_p95_mm = point_spacing(points_mm, 95.0)
+    pixel = body_end_pixel(spacing_p95_mm)
+    # the end slab is at least two point spacings thick, so a coarse mesh's feet have
+    # vertices in it (5% of a body is ~85 mm)
+    slab = max(0.05 * length, 2.0 * spacing_p95_mm)
+    blobs_low = _slab_blob_count(local[h < lo + slab, :2], pixel)
+    blobs_high = _slab_blob_count(local[h > hi - slab, :2], pixel)
     if blobs_low >= 2 and blobs_high < 2:
         sign = 1.0
     elif blobs_high >= 2 and blobs_low < 2:

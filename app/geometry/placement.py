@@ -28,7 +28,7 @@ from app.geometry import calf_frame as cf
 from app.geometry.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
-from app.geometry.leg_size import check_leg_size
+from app.geometry.leg_size import check_leg_size, with_unit_hint
 from app.geometry.scan_io import MIN_POINTS, Scan
 from app.geometry.side import infer_side
 
@@ -152,7 +152,7 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
 def _split(points: np.ndarray, spacing_p95_mm: float | None = None):
     """The legs of a whole body or of two legs joined at the hips; None for one leg.
     ``spacing_p95_mm``: the scan's point spacing when the clean-up measured it."""
-    return cf.split_body_legs(points) if _is_body(points) else cf.split_two_legs(points, spacing_p95_mm)
+    return cf.split_body_legs(points, spacing_p95_mm) if _is_body(points) else cf.split_two_legs(points, spacing_p95_mm)
 
 
 def _is_body(points: np.ndarray) -> bool:
@@ -180,7 +180,21 @@ def _describe(placement: LegPlacement, side: str, points: int) -> str:
 
 
 def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
-    """Find the leg of ``scan`` (see the module docstring); raises FitFailure."""
+    """Find the leg of ``scan`` (see the module docstring); raises FitFailure.
+
+    A refusal about the leg's shape on a scan too short to be a leg names the unit that
+    would make it one (:func:`app.geometry.leg_size.with_unit_hint`)."""
+    try:
+        return _place_leg(scan, side)
+    except FitFailure as failure:
+        extent = float(np.ptp(scan.points_mm, axis=0).max()) if len(scan.points_mm) else 0.0
+        hinted = with_unit_hint(failure, extent, scan.units, scan.units_detected)
+        if hinted is failure:
+            raise
+        raise hinted from failure
+
+
+def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     clean = clean_scan(scan.points_mm, scan.faces)
     if len(clean.points) < MIN_POINTS:  # e.g. a mesh of zero-area triangles only
         raise FitFailure(

@@ -152,3 +152,19 @@ def rigid_motion(rng: np.random.Generator) -> np.ndarray:
     m = trimesh.transformations.quaternion_matrix(q)
     m[:3, 3] = rng.uniform(-1000.0, 1000.0, size=3)
     return m
+
+
+def coarsen(vertices: np.ndarray, faces: np.ndarray, cell_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """A coarser tessellation of a mesh by vertex clustering: the vertices in each
+    ``cell_mm`` cube become their mean, triangles that collapse are dropped (what a
+    scanner's low-resolution export or a registered body template looks like: edges of
+    about 1-1.5 cells).  vertices (n, 3) mm, faces (f, 3); returns the new pair."""
+    key = np.floor(vertices / cell_mm).astype(np.int64)
+    _, cluster = np.unique(key, axis=0, return_inverse=True)
+    cluster = cluster.ravel()
+    merged = np.zeros((cluster.max() + 1, 3))
+    np.add.at(merged, cluster, vertices)
+    merged /= np.bincount(cluster)[:, None]
+    new_faces = cluster[faces]
+    keep = (new_faces[:, 0] != new_faces[:, 1]) & (new_faces[:, 1] != new_faces[:, 2]) & (new_faces[:, 0] != new_faces[:, 2])
+    return merged, new_faces[keep]

@@ -96,3 +96,22 @@ def test_a_placement_stored_without_the_clean_up_still_replays():
     assert old.cleanup is None
     new = LegPlacement.from_dict(place_leg(scan, None).placement.to_dict())
     assert np.array_equal(replace_leg(scan, old).points, replace_leg(scan, new).points)
+
+
+def test_rings_further_apart_than_their_points_are_one_piece():
+    """A 400 mm tube of rings 25 mm apart, 120 points (3 mm) round each: the first
+    voxel (3 x the median spacing, 9 mm; touching voxels join points up to 19 mm apart)
+    leaves every ring alone; it grows until the
+    rings join, and a ring 110 mm beside the tube stays a piece of its own."""
+    theta = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
+    z = np.arange(0.0, 400.0, 25.0)
+    ring = np.column_stack([60.0 * np.cos(theta), 60.0 * np.sin(theta)])
+    tube = np.column_stack([np.tile(ring, (len(z), 1)), np.repeat(z, len(theta))])
+    apart = np.column_stack([ring * 0.5 + [200.0, 0.0], np.full(len(theta), 200.0)])
+    points = np.vstack([tube, np.repeat(apart, 8, axis=0) + np.random.default_rng(1).normal(0, 0.1, (8 * 120, 3))])
+    first = max(cleanup.VOXEL_FACTOR * float(np.median(cleanup.neighbour_distances(points))), cleanup.MIN_VOXEL_MM)
+    assert len(np.unique(cleanup.voxel_pieces(tube, first))) == len(z)
+    voxel = cleanup.joining_voxel(points, first)
+    labels = cleanup.voxel_pieces(points, voxel)
+    assert len(np.unique(labels[: len(tube)])) == 1
+    assert not np.isin(labels[len(tube):], labels[: len(tube)]).any()
