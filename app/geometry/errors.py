@@ -61,3 +61,17 @@ class FitFailure(Exception):
 
     def __repr__(self) -> str:  # pragma: no cover - debugging aid
         return f"FitFailure({self.reason.value!r}, {self.detail!r})"
+
+
+class FootFound(FitFailure):
+    """A ``no_calf`` refusal that found a foot where a calf was looked for.
+
+    Positive evidence about the scan (the section there is as long as a foot, not round
+    as a calf), so it outranks a refusal that only missed something (``no_ankle``: a
+    bulge with no ankle below it) when the two orientations of a scan disagree.
+    ``girth_mm``: the girth of the section found to be a foot.  Crosses a process
+    boundary as a plain :class:`FitFailure`."""
+
+    def __init__(self, detail: str, girth_mm: float):
+        super().__init__(FailureReason.NO_CALF, detail)
+        self.girth_mm = float(girth_mm)

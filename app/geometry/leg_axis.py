@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.geometry import calf_frame as cf
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.knee_bend import keep_index, shank_runs
-from app.geometry.landmarks import FAILURE_STAGE, FeatureHeights, find_feature_heights
+from app.geometry.landmarks import FeatureHeights, failure_stage, find_feature_heights
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
 #: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
@@ -207,6 +207,11 @@ def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) 
             failures.append((failure, flipped))
     if found:
         return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
+    # a foot found one way outranks a missing ankle the other way (the foot read as a
+    # calf upside down); a missing knee found an ankle and a calf, and stays
+    feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
+    if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
+        raise feet[0]
     # report the failure of the more plausible orientation: knee end thicker
     measured = girth[np.isfinite(girth)]
     tenth = max(len(measured) // 10, 1)
@@ -380,7 +385,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             # knee): a reading that found the ankle and the calf but no knee names what is
             # really missing better than one that found no ankle - a foot read as the
             # calf, upside down, finds no ankle above it.  Ties: the straight axis's.
-            raise max(run_failures, key=lambda f: FAILURE_STAGE.get(f.reason, 0))
+            raise max(run_failures, key=failure_stage)
 
     # anterior: the foot when there is one, else opposite the calf bulge
     calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.scan_io import UNIT_SCALE_MM
 
 ANSUR_CALF_GIRTH_MM = (266.0, 385.0, 523.0)  # min, median, max
@@ -76,3 +76,51 @@ def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detecte
     detail += (f". The file is most likely in {UNIT_NAMES[other[0]]} (the calf would then be {other[1]:.0f} mm "
                f"round): upload it again with units={other[0]}")
     raise FitFailure(FailureReason.IMPLAUSIBLE_SIZE, detail)
+
+
+#: the shortest scan that can hold a lower leg from below the ankle to above the knee:
+#: the landmark rules need B at least 100 mm below C and D 30 mm above it, and adult
+#: lower legs measure ~300-480 mm from the ankle to the knee (ANSUR II's lateral
+#: malleolus to tibiale heights), so 250 mm leaves room for the shortest
+MIN_LOWER_LEG_SCAN_MM = 250.0
+#: the longest scan the service accepts (a whole body), mm
+MAX_BODY_SCAN_MM = 2500.0
+#: the girth of a foot's section along it (the ball of the foot to the heel-instep
+#: diagonal): ANSUR II adults' ball-of-foot circumferences are ~200-290 mm and the
+#: heel-ankle girth reaches ~370 mm; with margins for children's and swollen feet
+FOOT_GIRTH_MM = (160.0, 450.0)
+#: refusals about the leg's shape that a wrong unit also produces
+SHAPE_REASONS = (FailureReason.NO_ANKLE, FailureReason.NO_KNEE, FailureReason.NO_CALF, FailureReason.NOT_A_LEG,
+                 FailureReason.SIDE_NOT_FOUND, FailureReason.TOO_FEW_POINTS, FailureReason.TOO_SPARSE)
+
+
+def with_unit_hint(failure: FitFailure, extent_mm: float, unit: str, unit_detected: bool) -> FitFailure:
+    """``failure`` with a sentence naming the unit that would make the scan a leg.
+
+    A scan read in the wrong unit fails on its shape (a body in cm read as mm is 170 mm
+    long: no ankle, calf and knee fit in it), and the shape's refusal alone misleads.
+    When the scan's largest extent (``extent_mm``, as read in ``unit``) is shorter than
+    :data:`MIN_LOWER_LEG_SCAN_MM` and another unit makes it 250-2,500 mm long (a lower
+    leg to a whole body), that unit is named (of several, the one closest in ratio to a
+    700 mm leg scan).  Not when the refusal found a foot of a foot's size
+    (:class:`FootFound`, girth within :data:`FOOT_GIRTH_MM`): such a foot in the unit
+    read is itself evidence the unit is right.  Otherwise ``failure`` unchanged.
+    """
+    foot_sized = isinstance(failure, FootFound) and FOOT_GIRTH_MM[0] <= failure.girth_mm <= FOOT_GIRTH_MM[1]
+    if failure.reason not in SHAPE_REASONS or extent_mm >= MIN_LOWER_LEG_SCAN_MM or foot_sized:
+        return failure
+    best = None
+    for other, scale in UNIT_SCALE_MM.items():
+        length = extent_mm * scale / UNIT_SCALE_MM[unit]
+        if other != unit and MIN_LOWER_LEG_SCAN_MM <= length <= MAX_BODY_SCAN_MM:
+            score = abs(np.log(length / 700.0))
+            if best is None or score < best[0]:
+                best = (score, other, length)
+    if best is None:
+        return failure
+    how = "detected from its extent" if unit_detected else "as given"
+    detail = (f"{failure.detail.rstrip('.')}. Read in {UNIT_NAMES.get(unit, unit)} ({how}) the scan is only "
+              f"{extent_mm:.0f} mm long, shorter than any lower leg from ankle to knee ({MIN_LOWER_LEG_SCAN_MM:.0f} mm "
+              f"or more); in {UNIT_NAMES[best[1]]} it would be {best[2]:.0f} mm long: if the file is in "
+              f"{UNIT_NAMES[best[1]]}, upload it again with units={best[1]}")
+    return FitFailure(failure.reason, detail)
