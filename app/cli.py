@@ -1,7 +1,7 @@
-"""Command line: ``calf-nurbs fit | export | serve | worker | design | keys``.
+"""Command line: calf-nurbs fit | export | serve | worker | design | keys.
 
-Exit codes: 0 success, 2 bad usage, 3 the scan/record cannot be processed (the reason
-is printed to stderr as JSON ``{"error": reason, "detail": ...}``).
+Exit codes: 0 success, 2 bad usage, 3 the scan, record or a file cannot be processed
+(the reason is printed to stderr as JSON {"error": reason, "detail": ...}).
 """
 
 from __future__ import annotations
@@ -19,6 +19,42 @@ from app.geometry.errors import FitFailure
 def _fail(exc: FitFailure) -> int:
     print(json.dumps({"error": exc.reason.value, "detail": exc.detail}), file=sys.stderr)
     return 3
+
+
+def _file_failure(exc: OSError) -> int:
+    """A file the command was told to read or write cannot be (exit 3, JSON)."""
+    what = exc.strerror or type(exc).__name__
+    where = f": {exc.filename}" if exc.filename else ""
+    print(json.dumps({"error": "file_error", "detail": f"{what}{where}"}), file=sys.stderr)
+    return 3
+
+
+EPILOG = """examples:
+  calf-nurbs fit leg.stl -o leg.json                    # paper mode, 7 x 15 feature points
+  calf-nurbs fit body.glb --side left --units cm -o leg.json
+  calf-nurbs fit leg.ply --mode lsq --grid 12x24 -o leg.json
+  calf-nurbs export leg.json --format step -o leg.step  # the exact B-spline (calf frame, mm)
+  calf-nurbs export leg.json --format glb -o leg.glb    # a mesh in the scan's coordinates
+  calf-nurbs design leg.json --standard RAL --class II --stiffness 10
+  calf-nurbs keys create --tenant clinic-a
+  calf-nurbs serve --port 8000
+
+scan formats: {formats} (meshes or point clouds; units mm, cm, m or in,
+  detected from the size when not given)
+export formats: stl, glb, gltf (meshes); {cad} (exact B-spline)
+compression classes: {classes}
+
+exit codes: 0 done; 2 bad usage; 3 the scan, record or a file cannot be processed
+  (stderr: JSON {{"error": reason, "detail": sentence}})
+"""
+
+
+def _epilog() -> str:
+    from app.geometry.scan_io import SUPPORTED_FORMATS
+    from app.geometry.standards import COMPRESSION_CLASSES
+
+    classes = "; ".join(f"{standard} {', '.join(spec['classes'])}" for standard, spec in COMPRESSION_CLASSES.items())
+    return EPILOG.format(formats=", ".join(SUPPORTED_FORMATS), cad=", ".join(CAD_FORMATS), classes=classes)
 
 
 def fit_summary(record_dict: dict) -> dict:
@@ -219,7 +255,9 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="calf-nurbs", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="calf-nurbs", description="Fit an exact NURBS model to a 3D scan of a leg, "
+                                     "measure it and design a graduated compression stocking from it.",
+                                     epilog=_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
 
     fit = sub.add_parser("fit", help="fit the NURBS calf model to a scan")
@@ -281,7 +319,12 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    return args.func(args)
+    try:
+        return args.func(args)
+    except FitFailure as exc:
+        return _fail(exc)
+    except OSError as exc:  # a file named on the command line: missing, a folder, not writable
+        return _file_failure(exc)
 
 
 if __name__ == "__main__":  # pragma: no cover

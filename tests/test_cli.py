@@ -2,10 +2,20 @@
 
 import json
 
+import pytest
 import trimesh
 
 from app.cli import main
 from tests.conftest import REAL
+
+
+@pytest.fixture(scope="module")
+def record_path(tmp_path_factory):
+    """The BodyParts3D right leg fitted once by the CLI (paper mode, 7 x 15), for the
+    commands that read a record."""
+    path = tmp_path_factory.mktemp("cli") / "leg.json"
+    assert main(["fit", str(REAL / "bodyparts3d_right_leg.stl"), "--side", "right", "-o", str(path)]) == 0
+    return path
 
 
 def test_fit_then_export(tmp_path, capsys):
@@ -38,10 +48,7 @@ def test_body_side_and_units_options(tmp_path, capsys):
     assert summary["side"] == "left"
 
 
-def test_design_prints_a_table_and_json(tmp_path, capsys):
-    record_path = tmp_path / "leg.json"
-    assert main(["fit", str(REAL / "bodyparts3d_right_leg.stl"), "--side", "right", "-o", str(record_path)]) == 0
-    capsys.readouterr()
+def test_design_prints_a_table_and_json(record_path, capsys):
     assert main(["design", str(record_path), "--class", "II", "--stiffness", "10"]) == 0
     table = capsys.readouterr().out
     assert "RAL class II" in table and "[pass] B in RAL class II" in table
@@ -55,9 +62,7 @@ def test_design_prints_a_table_and_json(tmp_path, capsys):
     assert 23 <= design["landmarks"]["B"]["mean_pressure_mmHg"] <= 32
 
 
-def test_design_with_a_fabric_table_and_a_refusal(tmp_path, capsys):
-    record_path = tmp_path / "leg.json"
-    main(["fit", str(REAL / "bodyparts3d_right_leg.stl"), "-o", str(record_path)])
+def test_design_with_a_fabric_table_and_a_refusal(record_path, tmp_path, capsys):
     table = tmp_path / "fabric.csv"
     table.write_text("strain,tension_N_per_cm\n0.0,0.0\n0.2,1.5\n0.4,3.5\n0.8,9.0\n")
     capsys.readouterr()
@@ -65,3 +70,30 @@ def test_design_with_a_fabric_table_and_a_refusal(tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["class"]["standard"] == "BS"
     assert main(["design", str(record_path), "--class", "IV", "--stiffness", "1"]) == 3
     assert json.loads(capsys.readouterr().err)["error"] == "unreachable_pressure"
+
+
+@pytest.mark.parametrize("command", [
+    ["design", "{record}", "--table", "{tmp}/missing.csv"],
+    ["export", "{record}", "--format", "step", "-o", "/nonexistent/dir/x.step"],
+    ["export", "{record}", "--format", "stl", "-o", "{tmp}"],
+    ["fit", "{tmp}/missing.stl"],
+    ["export", "{tmp}/missing.json", "-o", "{tmp}/x.stl"],
+])
+def test_every_failure_exits_3_with_json_and_no_traceback(command, record_path, tmp_path, capsys):
+    argv = [part.format(record=record_path, tmp=tmp_path) for part in command]
+    assert main(argv) == 3
+    captured = capsys.readouterr()
+    error = json.loads(captured.err)
+    assert set(error) == {"error", "detail"} and error["detail"]
+    assert "Traceback" not in captured.err
+
+
+def test_help_lists_examples_formats_classes_and_exit_codes(capsys):
+    with pytest.raises(SystemExit) as done:
+        main(["--help"])
+    assert done.value.code == 0
+    text = capsys.readouterr().out
+    for part in ("examples:", "calf-nurbs fit leg.stl", "scan formats: stl", "step", "RAL I, II, III, IV",
+                 "BS 1, 2, 3", "exit codes:"):
+        assert part in text
+    assert "``" not in text
