@@ -65,8 +65,8 @@ class Settings(BaseSettings):
                          openapi/openapi.json and GET /openapi.json)
     CALF_AUTH            required | off.  Default: required, unless the service is bound
                          to localhost (127.0.0.1, ::1, localhost), where it is off and
-                         every request acts for the tenant "default" (a warning is logged
-                         at start-up).  Keys: `calf-nurbs keys create`.
+                         a request without a key acts for the tenant "default" (a key
+                         sent is still checked; a warning is logged at start-up).  Keys: `calf-nurbs keys create`.
     """
 
     model_config = SettingsConfigDict(env_prefix="CALF_", env_file=None)

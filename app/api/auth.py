@@ -5,7 +5,8 @@
 (no key, or a malformed, unknown, revoked or expired one), 403 (the key lacks every
 scope the route accepts) or 429 (the key's rate limit, :mod:`app.services.rate_limits`;
 ``upload=True`` also takes from the key's upload bucket).  With auth off (a service bound to localhost, or
-CALF_AUTH=off) every request acts for the tenant "default" with every scope.
+CALF_AUTH=off) a request without a key acts for the tenant "default" with every scope;
+one with a key is still checked (a wrong key is refused, a valid one acts as itself).
 """
 
 from __future__ import annotations
@@ -34,12 +35,14 @@ def authorize(*scopes: str, upload: bool = False):
         header_key: str | None = Security(header_scheme),
         session: Session = Depends(get_session),  # the request's own session (one per request)
     ) -> Principal:
-        if not request.app.state.settings.auth_required:
-            principal = LOCAL_PRINCIPAL
-        elif PRINCIPAL_STATE in request.scope.get("state", {}):  # authenticated before the body was read
+        presented = credentials.credentials if credentials is not None else header_key
+        if PRINCIPAL_STATE in request.scope.get("state", {}):  # authenticated before the body was read
             principal = request.scope["state"][PRINCIPAL_STATE]
+        elif not request.app.state.settings.auth_required and not presented:
+            principal = LOCAL_PRINCIPAL
         else:
-            presented = credentials.credentials if credentials is not None else header_key
+            # auth off, a key is still checked: a wrong key is an error the sender must
+            # hear of (it would be refused once the service is exposed), not "default"
             if not presented:
                 raise Unauthorized(
                     "this service needs your clinic's API key: send it as 'Authorization: Bearer <key>' "
@@ -75,11 +78,9 @@ def authorize(*scopes: str, upload: bool = False):
 def optional_principal(request: Request, session: Session) -> Principal | None:
     """The principal of the request's key when it has a valid one (no error otherwise):
     for public routes that show more to an operator.  Auth off: the local principal."""
-    if not request.app.state.settings.auth_required:
-        return LOCAL_PRINCIPAL
     key = presented_key(dict(request.scope.get("headers") or []))
     if key is None:
-        return None
+        return None if request.app.state.settings.auth_required else LOCAL_PRINCIPAL
     try:
         return KeyService(session).authenticate(key)
     except Unauthorized:

@@ -73,11 +73,11 @@ class RequestGuardMiddleware:
                 if int(text) > limit:
                     raise PayloadTooLarge(f"the request declares {int(text)} bytes; {what} may have at most {limit} "
                                           "bytes here", extra={"limit_bytes": limit})
-            if settings.auth_required:
-                key = presented_key(headers)
-                if key is None:
-                    raise Unauthorized("this service needs your clinic's API key: send it as 'Authorization: Bearer "
-                                       "<key>' or 'X-API-Key: <key>'", code="missing_key")
+            key = presented_key(headers)
+            if settings.auth_required and key is None:
+                raise Unauthorized("this service needs your clinic's API key: send it as 'Authorization: Bearer "
+                                   "<key>' or 'X-API-Key: <key>'", code="missing_key")
+            if key is not None:  # auth off too: a key sent is a key checked (app.api.auth)
                 principal = await anyio.to_thread.run_sync(_authenticate, scope["app"].state.sessions, key)
                 scope.setdefault("state", {})[PRINCIPAL_STATE] = principal
         except ServiceError as error:

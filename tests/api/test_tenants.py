@@ -221,3 +221,22 @@ def test_keys_cli_creates_lists_and_revokes(tmp_path):
     with session_factory(settings.resolved_database_url)() as session:
         with pytest.raises(Exception, match="revoked"):
             KeyService(session).authenticate(key)
+
+
+def test_with_auth_off_a_wrong_key_is_refused_and_a_valid_key_acts_as_itself(client):
+    """A local service (auth off) acts for "default" when no key is sent; a key that is
+    sent is checked: a mistyped one is refused (it would be once the service is
+    exposed), a valid one acts for its own clinic."""
+    assert not client.app.state.settings.auth_required
+    assert client.get("/api/v1/records").status_code == 200
+    wrong = {"Authorization": "Bearer cnk_wrongkey_" + "x" * 43}
+    for method, path in (("GET", "/api/v1/records"), ("POST", "/api/v1/records/import")):
+        answer = client.request(method, path, headers=wrong, json={})
+        assert answer.status_code == 401, (method, path, answer.text)
+        assert answer.headers["content-type"].startswith("application/problem+json")
+    with client.app.state.sessions() as session:
+        key = KeyService(session).create("clinic-local", ("read",)).key
+    assert client.get("/api/v1/usage", headers={"X-API-Key": key}).status_code == 200
+    # a read-only key acts as itself, scopes included: it may not upload
+    refused = client.post("/api/v1/scans", headers={"X-API-Key": key}, files={"file": ("a.stl", b"solid a")})
+    assert refused.status_code == 403 and refused.json()["code"] == "insufficient_scope"
