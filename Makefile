@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 
-.PHONY: run test install bench openapi clean web-vendor
+.PHONY: run test lint install bench openapi clean web-vendor
 
 $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,11 @@ run: install
 
 test: install
 	$(BIN)/python -m pytest
+
+# style and the numerical core's types (settings in pyproject.toml); .ci/run runs it
+lint: install
+	$(BIN)/ruff check app tests benchmarks
+	$(BIN)/mypy
 
 bench: install
 	$(BIN)/python benchmarks/bench_fit.py

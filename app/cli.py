@@ -134,9 +134,9 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _cmd_serve(args: argparse.Namespace) -> int:
-    import uvicorn
-
     import os
+
+    import uvicorn
 
     from app.db.migrate import upgrade_to_head
     from app.logs import configure_logging
@@ -211,7 +211,8 @@ def _cmd_worker(args: argparse.Namespace) -> int:
     upgrade_to_head(settings.resolved_database_url)
     if settings.broker_url:
         # scale-out: Dramatiq worker processes (one fit each) on the broker's queue
-        from dramatiq.cli import main as dramatiq_main, make_argument_parser
+        from dramatiq.cli import main as dramatiq_main
+        from dramatiq.cli import make_argument_parser
 
         from app.jobs.dramatiq_queue import QUEUE
 

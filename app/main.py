@@ -85,7 +85,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)
         if not settings.auth_required:
             log.warning("API keys are not required (CALF_AUTH=off or bound to %s): a request without a key acts "
-                        "for the tenant 'default' (a key sent is still checked). Bind to a public address or set CALF_AUTH=required to require keys.",
+                        "for the tenant 'default' (a key sent is still checked). Bind to a public address or set "
+                        "CALF_AUTH=required to require keys.",
                         settings.host)
         await app.state.runner.start()
         sweeper = asyncio.create_task(_sweep_temp(app.state.store), name="calf-temp-sweeper")

@@ -9,7 +9,6 @@ from typing import Literal
 from pydantic import Field
 from pydantic_settings import BaseSettings, SettingsConfigDict
 
-
 #: addresses only this machine can reach
 LOCAL_HOSTS = ("127.0.0.1", "::1", "localhost")
 

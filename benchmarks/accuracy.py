@@ -164,7 +164,7 @@ def real_legs() -> tuple[list, list]:
         fits = {}
         for label, options in PAPER + [(f"lsq {g}", FitOptions(mode="lsq", grid=g)) for g in LSQ_GRIDS]:
             options = FitOptions(**{**options.__dict__, "side": side})
-            result, seconds = timed(lambda: fit_scan(scan, options))
+            result, seconds = timed(lambda scan=scan, options=options: fit_scan(scan, options))
             record = record_from_fit(result, scan.source_format, scan.units).to_dict()
             nu, nv = result.surface.shape
             distinct = (nu - 3) * nv
@@ -198,7 +198,7 @@ def peer_rows(name: str, scan, result) -> list[dict]:
                 "max_mm": mx, "seconds": seconds, "note": "no refinement on the scan points (splipy's task)"})
     uu, vv = np.linspace(0, 1, a, endpoint=False), np.linspace(0, 1, b)
     for along, around in ((PEER_ALONG, PEER_AROUND), (20, 40)):
-        surface, seconds = timed(lambda: peer_splipy(data, u, v, along, around))
+        surface, seconds = timed(lambda along=along, around=around: peer_splipy(data, u, v, along, around))
         e, mx = algorithm1_score(np.asarray(surface(uu, vv)), points, result)
         out.append({"leg": name, "method": f"splipy least_square_fit {along}x{around}", "control_points": along * around,
                     "E": e, "max_mm": mx, "seconds": seconds, "note": "the section grid, our parameters"})

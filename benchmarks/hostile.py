@@ -30,8 +30,7 @@ import httpx
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from benchmarks.hostile_inputs import (LEG_STL, huge_coordinate_xyz, instanced_glb, leg_in_inches,  # noqa: E402
-                                       obj_with_2d_vertices, tube_record)
+from benchmarks.hostile_inputs import LEG_STL, huge_coordinate_xyz, instanced_glb, leg_in_inches, obj_with_2d_vertices, tube_record  # noqa: E402
 from benchmarks.served import BIN, free_port, start, stop, wait_ready  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -122,9 +122,8 @@ def run_mode(name: str, env: dict, worker_env: dict | None, uploads: int, client
 
 
 def dramatiq_env(data_dir: str) -> tuple[dict | None, str, object]:
-    from sqlalchemy import create_engine, text
-
     import redis
+    from sqlalchemy import create_engine, text
 
     try:
         redis.Redis.from_url(REDIS_URL, socket_connect_timeout=2).ping()

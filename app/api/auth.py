@@ -17,7 +17,6 @@ from sqlalchemy.orm import Session
 
 from app.api.deps import get_session
 from app.api.guard import PRINCIPAL_STATE, presented_key
-
 from app.errors import Forbidden, TooManyRequests, Unauthorized
 from app.services.keys import LOCAL_PRINCIPAL, KeyService, Principal
 

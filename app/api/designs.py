@@ -17,8 +17,8 @@ from app.api.problems import auth_problems, problems
 from app.api.schemas import DesignOut, DesignRequest
 from app.errors import NotAcceptable, NotFound
 from app.services import charts
-from app.services.keys import Principal
 from app.services.designs import DesignService, color_scale, design_view, knitting_csv, pressure_grid, pressure_map_csv, pressure_map_glb
+from app.services.keys import Principal
 
 router = APIRouter(prefix="/api/v1", tags=["designs"], responses=auth_problems())
 
@@ -66,18 +66,21 @@ def get_design(design_id: str, session: Session = Depends(get_session), principa
 
 
 @router.get("/designs/{design_id}/knitting-spec", summary="The knitting specification as CSV (one row per height)",
-            response_class=Response, responses={200: {"content": {"text/csv": {}}, "description": "CSV"}, **problems(s404="design_not_found")})
+            response_class=Response,
+            responses={200: {"content": {"text/csv": {}}, "description": "CSV"}, **problems(s404="design_not_found")})
 def get_knitting_spec(design_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     design = DesignService(session, principal.tenant_id).get(design_id)
     return Response(knitting_csv(design.result), media_type="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="knitting-{design.id[:12]}.csv"'})
 
 
-@router.get("/designs/{design_id}/pressure-map", summary="Local skin pressure over the surface: GLB with vertex colours and a legend, or CSV",
+@router.get("/designs/{design_id}/pressure-map",
+            summary="Local skin pressure over the surface: GLB with vertex colours and a legend, or CSV",
             response_class=Response,
             responses={200: {"content": {"model/gltf-binary": {}, "text/csv": {}}, "description": "the map"},
                        **problems(s404="design_not_found", s406="not_acceptable")})
-async def get_pressure_map(design_id: str, request: Request, file_format: Literal["glb", "csv"] | None = Query(None, alias="format", description="overrides Accept"),
+async def get_pressure_map(design_id: str, request: Request,
+                           file_format: Literal["glb", "csv"] | None = Query(None, alias="format", description="overrides Accept"),
                            session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     accept = (request.headers.get("accept") or "*/*").lower()
     fmt = (file_format or ("csv" if "text/csv" in accept and "gltf" not in accept else "glb" if any(
@@ -89,14 +92,17 @@ async def get_pressure_map(design_id: str, request: Request, file_format: Litera
     record = await run_in_threadpool(service.record_of, design)
     if fmt == "csv":
         body = await run_in_threadpool(pressure_map_csv, design, record)
-        return Response(body, media_type="text/csv", headers={"Content-Disposition": f'attachment; filename="pressure-{design.id[:12]}.csv"'})
+        return Response(body, media_type="text/csv",
+                        headers={"Content-Disposition": f'attachment; filename="pressure-{design.id[:12]}.csv"'})
     body = await run_in_threadpool(pressure_map_glb, design, record)
-    return Response(body, media_type="model/gltf-binary", headers={"Content-Disposition": f'attachment; filename="pressure-{design.id[:12]}.glb"'})
+    return Response(body, media_type="model/gltf-binary",
+                    headers={"Content-Disposition": f'attachment; filename="pressure-{design.id[:12]}.glb"'})
 
 
 @router.get("/designs/{design_id}/charts/{name}.png", summary="PNG charts: profile, pressure or map", response_class=Response,
             responses={200: {"content": {"image/png": {}}, "description": "PNG"}, **problems(s404="design_not_found or chart_not_found")})
-async def get_chart(design_id: str, name: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
+async def get_chart(design_id: str, name: str, session: Session = Depends(get_session),
+                    principal: Principal = Depends(authorize("read", "design"))):
     if name not in charts.CHARTS:
         raise NotFound(f"no chart {name!r}; charts are {', '.join(charts.CHARTS)}", code="chart_not_found")
     service = DesignService(session, principal.tenant_id)

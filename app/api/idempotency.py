@@ -36,7 +36,7 @@ Stage = Callable[[int, dict, "str | None"], None]
 
 
 async def answer_once(request: Request, session: Session, principal: Principal, key: str | None, operation: str,
-                      content: dict, respond: Callable[["Stage | None"], Awaitable[JSONResponse]],
+                      content: dict, respond: Callable[[Stage | None], Awaitable[JSONResponse]],
                       on_replay: Callable[[], None] | None = None) -> JSONResponse:
     """``respond(stage)``, once per key: without a key, just respond; with one, replay the
     stored response, or respond and keep its 2xx answer under the key.  A ``respond`` that

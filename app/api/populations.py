@@ -12,8 +12,8 @@ from app.api.auth import authorize
 from app.api.deps import get_runner, get_session, get_store
 from app.api.problems import auth_problems, problems
 from app.api.schemas import PopulationOut, PopulationRefitting, PopulationRequest
-from app.services.keys import Principal
 from app.jobs.runner import EmbeddedRunner
+from app.services.keys import Principal
 from app.services.populations import PopulationService, Refitting
 from app.services.storage import ScanStore
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from datetime import date, datetime, time, timedelta, timezone
+from datetime import UTC, date, datetime, time, timedelta
 from typing import Literal
 
 from fastapi import APIRouter, Body, Depends, Query, Request, Response
@@ -20,8 +20,8 @@ from app.errors import NotAcceptable, Unprocessable
 from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
 from app.services.deviations import DeviationService
 from app.services.keys import Principal
-from app.services.storage import ScanStore
 from app.services.records import ALONG_RANGE, AROUND_RANGE, MAX_SURFACE_SAMPLES, SURFACE_MEDIA_TYPES, RecordService, surface_etag
+from app.services.storage import ScanStore
 
 #: comma-separated decimal numbers (mm)
 _NUMBER = r"[-+]?(\d+(\.\d*)?|\.\d+)([eE][-+]?\d+)?"
@@ -75,8 +75,8 @@ def list_records(
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
-    start = datetime.combine(_day(since, "since"), time.min, tzinfo=timezone.utc) if since else None
-    end = datetime.combine(_day(until, "until") + timedelta(days=1), time.min, tzinfo=timezone.utc) if until else None
+    start = datetime.combine(_day(since, "since"), time.min, tzinfo=UTC) if since else None
+    end = datetime.combine(_day(until, "until") + timedelta(days=1), time.min, tzinfo=UTC) if until else None
     rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor, side, start, end)
     return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
 
@@ -148,10 +148,12 @@ def negotiate_surface_format(accept: str | None, query_format: str | None) -> st
 
 @router.get(
     "/records/{record_id}/surface",
-    summary="The surface: tessellated in the scan's coordinates (STL, GLB, glTF), or exact in the calf frame, mm (STEP, IGES, 3dm, geomdl JSON)",
+    summary="The surface: tessellated in the scan's coordinates (STL, GLB, glTF), or exact in the calf frame, mm "
+            "(STEP, IGES, 3dm, geomdl JSON)",
     response_class=Response,
     responses={
-        200: {"description": "The mesh", "content": {m: {"schema": {"type": "string", "format": "binary"}} for m in SURFACE_MEDIA_TYPES.values()},
+        200: {"description": "The mesh",
+              "content": {m: {"schema": {"type": "string", "format": "binary"}} for m in SURFACE_MEDIA_TYPES.values()},
               "headers": {"ETag": {"schema": {"type": "string"}}, "Content-Disposition": {"schema": {"type": "string"}}}},
         304: {"description": "Not modified (If-None-Match matched the ETag)"},
         **problems(s404="record_not_found", s406="not_acceptable: no supported media type in Accept / ?format=",

@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import asyncio
 import time
 from typing import Literal
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.concurrency import run_in_threadpool
-from fastapi.responses import JSONResponse
 from fastapi.encoders import jsonable_encoder
+from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
-from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
+from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
 from app.errors import TooManyRequests, Unavailable
@@ -131,7 +130,7 @@ async def upload_scan(
                         settings.max_scan_faces, nice, timeout=settings.validation_timeout_s
                     )
             outcome = "accepted"
-        except asyncio.TimeoutError as exc:
+        except TimeoutError as exc:
             outcome = "check_timeout"
             raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
         except FitFailure as failure:

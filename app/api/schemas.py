@@ -21,7 +21,8 @@ class Landmark(BaseModel):
     height_mm: float = Field(ge=-MAX_CONTROL_MM, le=MAX_CONTROL_MM, description="calf-frame z; B is 0")
     circumference_mm: float = Field(gt=0, le=10 * MAX_CONTROL_MM, description="perimeter of the scan's section at this height")
     tape_girth_mm: float | None = Field(
-        None, gt=0, le=10 * MAX_CONTROL_MM, description="perimeter of its convex hull: what a tape measure, ANSUR and the hosiery standards "
+        None, gt=0, le=10 * MAX_CONTROL_MM,
+        description="perimeter of its convex hull: what a tape measure, ANSUR and the hosiery standards "
         "read (record version 2; absent in version 1)")
     at_scan_edge: bool = Field(
         False, description="B or D was taken at the scan's edge (the scan starts at the ankle minimum or ends "

@@ -100,7 +100,7 @@ class CleanScan:
         return Floor(first.normal, first.point, sum(f.n_removed for f in self.floors))
 
     @property
-    def replay(self) -> "CleanupReplay":
+    def replay(self) -> CleanupReplay:
         """What :func:`clean_scan` needs to repeat this clean-up on the same scan."""
         return CleanupReplay(tuple((f.point, f.normal) for f in self.floors), self.voxel_mm, self.spacing_p95_mm)
 
@@ -121,7 +121,7 @@ class CleanupReplay:
                 "voxel_mm": self.voxel_mm, "spacing_p95_mm": self.spacing_p95_mm}
 
     @classmethod
-    def from_dict(cls, data: dict) -> "CleanupReplay | None":
+    def from_dict(cls, data: dict) -> CleanupReplay | None:
         """The replay in ``data`` (a stored placement), or None when it holds none."""
         if "floors" not in data and "voxel_mm" not in data:
             return None
@@ -315,8 +315,8 @@ def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
                 hit = unique[at] == neighbour
                 rows.append(np.flatnonzero(hit))
                 cols.append(at[hit])
-    rows, cols = np.concatenate(rows), np.concatenate(cols)
-    graph = coo_matrix((np.ones(len(rows), dtype=np.int8), (rows, cols)), shape=(len(unique), len(unique)))
+    row_index, col_index = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(len(row_index), dtype=np.int8), (row_index, col_index)), shape=(len(unique), len(unique)))
     _, labels = connected_components(graph, directed=False)
     return labels[inverse.reshape(-1)]
 

@@ -60,4 +60,5 @@ def export_mesh(mesh: trimesh.Trimesh, file_format: str) -> bytes:
         files = trimesh.Scene(mesh).export(file_type="gltf", embed_buffers=True)
         payload = files["model.gltf"] if isinstance(files, dict) else files
         return payload if isinstance(payload, bytes) else payload.encode()
-    return mesh.export(file_type=EXPORT_FORMATS[file_format])
+    data = mesh.export(file_type=EXPORT_FORMATS[file_format])
+    return data if isinstance(data, bytes) else str(data).encode()

@@ -35,13 +35,13 @@ class Fabric:
     max_strain: float = DEFAULT_MAX_STRAIN
 
     @staticmethod
-    def linear(stiffness_n_per_cm: float, max_strain: float = DEFAULT_MAX_STRAIN) -> "Fabric":
+    def linear(stiffness_n_per_cm: float, max_strain: float = DEFAULT_MAX_STRAIN) -> Fabric:
         fabric = Fabric(stiffness_n_per_cm=float(stiffness_n_per_cm), max_strain=float(max_strain))
         fabric.validate()
         return fabric
 
     @staticmethod
-    def table(strains, tensions_n_per_cm) -> "Fabric":
+    def table(strains, tensions_n_per_cm) -> Fabric:
         strains = tuple(float(s) for s in strains)
         tensions = tuple(float(t) for t in tensions_n_per_cm)
         fabric = Fabric(strains=strains, tensions_n_per_cm=tensions, max_strain=max(strains) if strains else 0.0)
@@ -54,7 +54,8 @@ class Fabric:
             if not np.isfinite(k) or k <= 0:
                 raise FitFailure(FailureReason.INVALID_FABRIC, f"stiffness must be a positive number of N/cm, not {k}")
             if k > 1000:
-                raise FitFailure(FailureReason.INVALID_FABRIC, f"a stiffness of {k:g} N/cm per unit strain is not a knitted fabric (expected 0.1-100)")
+                raise FitFailure(FailureReason.INVALID_FABRIC,
+                                 f"a stiffness of {k:g} N/cm per unit strain is not a knitted fabric (expected 0.1-100)")
             if not (0 < self.max_strain <= 5):
                 raise FitFailure(FailureReason.INVALID_FABRIC, f"max_strain must be in (0, 5], not {self.max_strain}")
             return

@@ -106,8 +106,8 @@ def candidate_angles(radii: np.ndarray, angles: np.ndarray, m: int | None = None
     # S2: middles of flat arcs (runs of >= 3 small radius steps)
     tolerance = FLAT_TOLERANCE * radii.mean(axis=1, keepdims=True)
     flat = np.abs(np.roll(radii, -1, axis=1) - radii) < tolerance  # step i -> i+1 is flat
-    for layer in np.flatnonzero(flat.any(axis=1) & ~flat.all(axis=1)):
-        row = flat[layer]
+    for flat_layer in np.flatnonzero(flat.any(axis=1) & ~flat.all(axis=1)):
+        row = flat[flat_layer]
         start = int(np.argmin(row))  # a non-flat step: runs cannot wrap past it
         rolled = np.roll(row, -start)
         edges = np.diff(np.concatenate([[0], rolled.astype(np.int8), [0]]))

@@ -22,9 +22,9 @@ from app.geometry import calf_frame as cf
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.feature_points import candidate_angles, radii_at, shared_angles
 from app.geometry.landmarks import (
+    LANDMARK_NAMES,
     Landmark,
     Landmarks,
-    LANDMARK_NAMES,
     b1_height,
     height_tolerances,
     layer_heights,
@@ -259,7 +259,7 @@ def fit_calf(
     covered = float(np.median(sections.coverage))
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
     if valid.mean() < 0.9:
-        if sparse:
+        if sparse and density is not None:
             raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
         raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
     lap("resample")
@@ -271,7 +271,7 @@ def fit_calf(
     if sparse and not layer_sections.valid.all():
         layer_sections = bridge_layers(layer_sections, sections)
     if not layer_sections.valid.all():
-        if sparse:
+        if sparse and density is not None:
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
         raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
     layer_girth = layer_sections.circumferences()
@@ -331,7 +331,7 @@ def fit_calf(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
             "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
     for name in LANDMARK_NAMES:
-        tolerance = landmarks.tolerances_mm[name]
+        tolerance = (landmarks.tolerances_mm or {}).get(name, 0.0)
         if not landmarks.at_edge(name) and landmarks.confidence(name) == "low":
             fit_warnings.append(
                 f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "

@@ -35,6 +35,7 @@ prediction is then recomputed from the rounded L0, as the knitted stocking would
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -138,7 +139,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     sides = sector_means(rings, local, directions)
 
     index = {name: int(np.argmin(np.abs(heights - landmark_z[name]))) for name in LANDMARK_NAMES}
-    per_landmark = {}
+    per_landmark: dict[str, dict[str, Any]] = {}
     for name in LANDMARK_NAMES:
         i = index[name]
         per_landmark[name] = {

@@ -123,8 +123,8 @@ class Landmarks:
     d_at_window_edge: bool = False  # D is the bottom of its search window (no distinct minimum)
     b_at_scan_edge: bool = False  # the scan starts at (or just above) the ankle minimum
     d_at_scan_edge: bool = False  # the scan ends at (or just below) the knee waist
-    tape_girths_mm: dict = None  # name -> convex-hull (tape) girth of the section, mm
-    tolerances_mm: dict = None  # name -> height tolerance (:func:`height_tolerances`), mm
+    tape_girths_mm: dict | None = None  # name -> convex-hull (tape) girth of the section, mm
+    tolerances_mm: dict | None = None  # name -> height tolerance (:func:`height_tolerances`), mm
 
     def at_edge(self, name: str) -> bool:
         """Was the landmark taken at the scan's edge (B, D) or its window's edge (D)?"""
@@ -369,10 +369,11 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         if widest - bottom <= INTERIOR_MARGIN_MM * 5:
             raise _no_ankle(top - bottom)
         raise _no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
-    failures: list[tuple[int, float, FitFailure]] = []
+    failures: list[tuple[float, float, FitFailure]] = []
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
+            outcome: FeatureHeights | FitFailure
             if elongation is not None and elongation[ic] > MAX_CALF_ELONGATION:
                 outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as "
                                              "long as it is wide: a foot, not a calf").detail, float(g[ic]))

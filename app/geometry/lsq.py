@@ -94,7 +94,7 @@ class LsqGrid:
     around: int = 15
 
     @classmethod
-    def parse(cls, text: str) -> "LsqGrid":
+    def parse(cls, text: str) -> LsqGrid:
         """``"ALONGxAROUND"`` (e.g. ``"7x15"``) -> LsqGrid; FitFailure INVALID_OPTION."""
         match = _GRID.match(str(text))
         if not match:

@@ -253,11 +253,11 @@ def evaluate_derivatives(
     patch = net.reshape(nu * nv, channels)[flat_index]  # (N, p+1, q+1, c)
     # contract v first: (N, p+1, c, q+1) @ (N, 1, q+1, 3) -> (N, p+1, c, 3 v-orders)
     along_v = np.matmul(patch.transpose(0, 1, 3, 2), dv.transpose(1, 2, 0)[:, None])
-    # then u: (N, 3 u-orders, p+1) @ (N, p+1, c*3) -> (N, 3, c, 3): [n, k, coord, l]
+    # then u: (N, 3 u-orders, p+1) @ (N, p+1, c*3) -> (N, 3, c, 3): [n, k, coord, v-order]
     both = np.matmul(du.transpose(1, 0, 2), along_v.reshape(len(u), p + 1, channels * 3)).reshape(len(u), 3, channels, 3)
 
-    def a(k: int, l: int) -> np.ndarray:
-        return both[:, k, :, l]
+    def a(k: int, order_v: int) -> np.ndarray:  # the k-th u and order_v-th v derivative
+        return both[:, k, :, order_v]
 
     if polynomial:
         return a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)

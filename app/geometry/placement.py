@@ -91,7 +91,7 @@ class LegPlacement:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> "LegPlacement":
+    def from_dict(cls, data: dict) -> LegPlacement:
         return cls(
             rotation=np.asarray(data["rotation"], dtype=float), origin_mm=np.asarray(data["origin_mm"], dtype=float),
             mm_per_unit=float(data["mm_per_unit"]), anterior_cue=str(data["anterior_cue"]),
@@ -231,8 +231,11 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
             # the clinician's side is kept (a foot can mislead: a deformity, an amputated
             # toe, a bandage), but a confident foot that says otherwise is said in the
             # record's warnings - left and right swap medial and lateral in every design
-            found, source, confidence = side, "given", None
-            if guess.side is not None and guess.side != side and guess.confidence >= CONTRADICTED_SIDE_CONFIDENCE:
+            found: str | None = side
+            source: str | None = "given"
+            confidence: float | None = None
+            if (guess.side is not None and guess.side != side
+                    and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE):
                 warnings.append(
                     f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
                     f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is wrong, "

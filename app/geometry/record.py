@@ -104,7 +104,7 @@ class CalfRecord:
         }
 
     @classmethod
-    def from_dict(cls, data: dict) -> "CalfRecord":
+    def from_dict(cls, data: dict) -> CalfRecord:
         """Validate and build a record; raises FitFailure(INVALID_RECORD) naming the problem."""
         return parse_record(data)
 

@@ -331,7 +331,7 @@ def load_scan(
             f"{MAX_COORDINATE:.0e} (10 km in mm): the numbers are not coordinates of a leg")
     extent = float(np.ptp(points, axis=0).max())
     detected = units is None
-    unit = detect_units(extent) if detected else units
+    unit = detect_units(extent) if units is None else units
     length_mm = extent * UNIT_SCALE_MM[unit]
     if not (MIN_EXTENT_MM <= length_mm <= MAX_EXTENT_MM):
         raise FitFailure(

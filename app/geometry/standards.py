@@ -6,13 +6,33 @@ Pressures in mmHg; the landmarks B, B1, C, D of :mod:`app.geometry.landmarks`.
 
 from __future__ import annotations
 
+from typing import TypedDict
+
 import numpy as np
 
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.landmarks import LANDMARK_NAMES
 
+
+class CompressionStandard(TypedDict):
+    """A standard's compression classes: name -> (lowest, highest or None) mmHg at B."""
+
+    source: str
+    classes: dict[str, tuple[float, float | None]]
+
+
+class GradientRow(TypedDict):
+    """A landmark's pressure as a fraction of B's: allowed range, design target, and
+    whether the standard requires it."""
+
+    range: tuple[float, float]
+    target: float
+    normative: bool
+    source: str
+
+
 #: Compression classes: mean pressure at B (the ankle), mmHg.  None: no upper bound.
-COMPRESSION_CLASSES = {
+COMPRESSION_CLASSES: dict[str, CompressionStandard] = {
     "RAL": {
         "source": "RAL-GZ 387/1 (Germany, 2008): pressure at B",
         "classes": {"I": (18.0, 21.0), "II": (23.0, 32.0), "III": (34.0, 46.0), "IV": (49.0, None)},
@@ -33,7 +53,7 @@ OPEN_CLASS_MARGIN = 1.10
 #: standing of each row: only the D row is normative (RAL-GZ 387: at most 70% at D); the
 #: B1 and C rows are the values commonly cited in the compression literature and by
 #: manufacturers, not a requirement of RAL-GZ 387 - they are marked as such.
-GRADIENT = {
+GRADIENT: dict[str, GradientRow] = {
     "B1": {"range": (0.70, 1.00), "target": 0.85, "normative": False,
            "source": "commonly cited (not normative in RAL-GZ 387): B1 70-100% of B"},
     "C": {"range": (0.50, 0.80), "target": 0.65, "normative": False,

@@ -145,7 +145,8 @@ def algorithm1_distances(
     return dist, iu, iv
 
 
-def refine_seeds(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: np.ndarray, iu: np.ndarray, iv: np.ndarray):
+def refine_seeds(points: np.ndarray, u: np.ndarray, v: np.ndarray, grid: np.ndarray, iu: np.ndarray,
+                 iv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """One Gauss-Newton step on the sampling grid itself: the tangents are central
     differences of neighbouring grid vertices, so no surface evaluation is needed.  Takes
     the nearest-vertex seeds (about half a grid cell off) to within hundredths of a mm.

@@ -249,7 +249,7 @@ class EmbeddedRunner:
                 if attempt == 2:
                     raise Unavailable("the upload check's worker process stopped twice; try again in a moment",
                                       code="runner_unavailable") from None
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 self.check_pool.replace(generation)  # the slow check's process must not keep its slot
                 raise
 
@@ -300,7 +300,7 @@ class EmbeddedRunner:
             self._wakeup.clear()
             try:
                 await asyncio.wait_for(self._wakeup.wait(), timeout=min(2.0, self.lease_s / 3))
-            except asyncio.TimeoutError:
+            except TimeoutError:
                 pass
 
     def _job_done(self, job_id: str) -> None:
@@ -326,7 +326,7 @@ class EmbeddedRunner:
         except FitFailure as failure:
             await fail(failure.reason.value, failure.detail)
             return failure.reason.value
-        except asyncio.TimeoutError:
+        except TimeoutError:
             self.fit_pool.replace(generation)  # its process is killed: the slot is free again
             await fail("timeout", timeout_detail(self.job_timeout_s))
             return "timeout"

@@ -36,7 +36,8 @@ def summary_table(result: dict) -> str:
         hi = cls["range_mmHg"][1]
         lines.append(f"{cls['standard']} class {cls['class']} ({cls['range_mmHg'][0]:g}-{hi:g} mmHg at B)" if hi else
                      f"{cls['standard']} class {cls['class']} (>= {cls['range_mmHg'][0]:g} mmHg at B)")
-    header = f"{'':3} {'h mm':>6} {'mean':>6} {'kPa':>5} {'medial':>7} {'lateral':>7} {'anter.':>7} {'poster.':>7} {'peak':>6} {'L mm':>6} {'L0 mm':>6} {'strain':>6}"
+    header = (f"{'':3} {'h mm':>6} {'mean':>6} {'kPa':>5} {'medial':>7} {'lateral':>7} {'anter.':>7} {'poster.':>7} "
+              f"{'peak':>6} {'L mm':>6} {'L0 mm':>6} {'strain':>6}")
     lines += [header, "-" * len(header)]
     for name in LANDMARKS:
         lm = result["landmarks"][name]

@@ -60,7 +60,7 @@ class CheckGate:
         semaphore = self._slots[tenant_id]
         try:
             await asyncio.wait_for(semaphore.acquire(), self.wait_s)
-        except asyncio.TimeoutError:
+        except TimeoutError:
             raise TooManyRequests(
                 f"your clinic's uploads have waited {self.wait_s:g} s for a check: {self.per_tenant} of them may be "
                 "checked at once; send fewer at a time", retry_after_s=RETRY_AFTER_S, code="too_many_checks",

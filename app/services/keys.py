@@ -15,7 +15,7 @@ import hmac
 import re
 import secrets
 from dataclasses import dataclass
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 
 from sqlalchemy.orm import Session
 
@@ -87,7 +87,7 @@ class KeyService:
         if not tenant_name or len(tenant_name) > 100:
             raise BadRequest("the tenant name must be 1-100 characters", code="invalid_tenant")
         tenant = self.tenants.by_name(tenant_name) or self.tenants.add(tenant_name)
-        expires = datetime.now(timezone.utc) + timedelta(days=expires_in_days) if expires_in_days else None
+        expires = datetime.now(UTC) + timedelta(days=expires_in_days) if expires_in_days else None
         while True:
             prefix = f"cnk_{secrets.token_hex(4)}"
             if self.keys.by_prefix(prefix) is None:
@@ -102,7 +102,7 @@ class KeyService:
         if key is None:
             raise NotFound(f"no key with prefix {prefix!r}", code="key_not_found")
         if key.revoked_at is None:
-            self.keys.revoke(key, datetime.now(timezone.utc))
+            self.keys.revoke(key, datetime.now(UTC))
         self.session.commit()
         return key
 
@@ -122,7 +122,7 @@ class KeyService:
         if not match:
             raise Unauthorized("the API key is malformed: it reads cnk_<8 hex>_<43 characters>", code="invalid_key")
         key = self.keys.by_prefix(match.group(1))
-        now = datetime.now(timezone.utc)
+        now = datetime.now(UTC)
         if key is None or not hmac.compare_digest(key.secret_sha256, _digest(presented.strip())):
             raise Unauthorized("the API key is not valid", code="invalid_key")
         if key.revoked_at is not None or (key.expires_at is not None and key.expires_at <= now):

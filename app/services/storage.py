@@ -13,7 +13,6 @@ import tempfile
 import time
 from pathlib import Path
 
-
 _HOST = socket.gethostname().replace("-", "_")
 
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from datetime import datetime, timedelta, timezone
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
@@ -159,7 +159,7 @@ def test_revoked_and_expired_keys_get_401(service):
     expiring = _key(settings, "clinic-c", ("read",))
     with session_factory(settings.resolved_database_url)() as session:
         row = session.query(ApiKey).filter_by(prefix=expiring[:12]).one()
-        row.expires_at = datetime.now(timezone.utc) - timedelta(seconds=1)
+        row.expires_at = datetime.now(UTC) - timedelta(seconds=1)
         session.commit()
     assert client.get("/api/v1/records", headers=_as(expiring)).status_code == 401
 

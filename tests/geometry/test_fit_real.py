@@ -181,7 +181,7 @@ def test_every_landmark_says_how_sharply_the_scan_places_it(file, side):
     _, result = fitted(file, side)
     lm = result.landmarks
     entries = lm.as_dict()
-    for name, entry in entries.items():
+    for entry in entries.values():
         assert entry["height_tolerance_mm"] >= 0.0
         assert entry["confidence"] in ("high", "medium", "low")
     assert entries["B1"]["height_tolerance_mm"] < 5.0 and entries["B1"]["confidence"] == "high"

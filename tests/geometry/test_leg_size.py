@@ -41,9 +41,8 @@ def test_no_adult_calf_in_another_unit_reads_as_plausible():
 import trimesh  # noqa: E402
 from scipy.spatial import ConvexHull  # noqa: E402
 
-from benchmarks.corpus.degrade import crop  # noqa: E402
-
 from app.geometry.fit import FitOptions  # noqa: E402
+from benchmarks.corpus.degrade import crop  # noqa: E402
 from tests.conftest import REAL  # noqa: E402
 
 

@@ -23,7 +23,6 @@ def test_a_side_given_against_a_confident_foot_is_kept_with_a_warning():
 
 # --- coarse meshes and the vertices of a body as a cloud --------------------------------
 
-import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import trimesh  # noqa: E402
 
