@@ -75,3 +75,10 @@ class FootFound(FitFailure):
     def __init__(self, detail: str, girth_mm: float):
         super().__init__(FailureReason.NO_CALF, detail)
         self.girth_mm = float(girth_mm)
+
+
+class RisesToEdge(FitFailure):
+    """A ``no_knee`` (``no_ankle``) refusal of a profile that only rises to the scan's
+    top (bottom) edge: no ankle and no calf maximum were found, only a girth growing
+    towards an edge.  The weakest evidence of where the scan stops (a thigh cut free at a
+    bent knee rises so too), so it yields to any reading that found a calf bulge."""

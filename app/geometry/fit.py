@@ -32,6 +32,7 @@ from app.geometry.landmarks import (
 from app.geometry.lsq import LsqFit, LsqGrid, fit_lsq_surface
 from app.geometry.nurbs import NurbsSurface, surface_from_layers
 from app.geometry.placement import LegPlacement, place_leg, replace_leg
+from app.geometry.point_sections import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.scan_io import Scan
 from app.geometry.sections import PolarSections, slice_polar, tape_girths
 from app.geometry.skin_distance import OFF_SKIN_MM, SkinDistance, surface_to_scan
@@ -58,11 +59,10 @@ MIN_POINTS_PER_CONTROL = 10
 #: so a mesh is warned about only with fewer vertices than control points: its
 #: triangles are then larger than the net's patches
 MIN_VERTICES_PER_CONTROL = 1
-#: a cloud whose sections cannot be closed, and whose slabs (up to 20 mm thick,
-#: app.geometry.point_sections.MAX_HALF_MM) hold a point in fewer than this share of the
-#: 5-degree sectors around the leg (median), is too sparse rather than not a leg: with
-#: half the sectors empty at random, gaps wider than the 100 degrees a section may bridge
-#: (MAX_GAP_DEG) are common; refused as too_sparse, with the coverage and density found
+#: a cloud whose sections cannot be closed (fewer than 90% of them, after bridging the
+#: open ones from their neighbours) and whose slabs hold a point in fewer than this share
+#: of the 5-degree sectors around the leg (median) is too sparse rather than not a leg;
+#: refused as too_sparse with the density found and needed (MIN_CLOUD_POINTS_PER_MM)
 MIN_SECTOR_COVERAGE = 0.6
 #: below this density (the slabs are then thicker than 8 mm), a cloud's girths are
 #: warned about: a thick slab at the ankle minimum reads the wider leg above and below
@@ -139,28 +139,29 @@ def _too_sparse(what: str, covered: float, density: float, closed: float) -> Fit
     """The refusal of a cloud too sparse to close ``what`` (module constants above)."""
     return FitFailure(
         FailureReason.TOO_SPARSE,
-        f"the cloud is too sparse to close {what}: a slab of it holds points in {covered:.0%} of the 5-degree sectors "
-        f"around the leg (median; {density:.1f} points per mm of the calf's height), and {closed:.0%} of the sections "
-        f"could be closed; a cloud needs points in at least {MIN_SECTOR_COVERAGE:.0%} of them: export the scan denser, "
-        "or as a mesh")
+        f"the cloud is too sparse to close {what}: it has {density:.1f} points per mm of the calf's height and its "
+        f"slabs (up to 20 mm thick) hold points in {covered:.0%} of the 5-degree sectors around the leg (median), so "
+        f"{closed:.0%} of the sections could be closed (90% are needed); a cloud needs about "
+        f"{MIN_CLOUD_POINTS_PER_MM:g} point per mm of the leg's height, {MIN_CLOUD_POINTS_PER_MM * 20:.0f} in each "
+        "slab, spread round the leg: export the scan denser, or as a mesh")
 
 
-#: a sparse cloud's feature layer whose own slab cannot be closed is interpolated from
-#: the closed calf sections at most this far above and below it, mm: the reach of a
-#: sparse cloud's slab (app.geometry.point_sections.MAX_HALF_MM), over which a leg's
-#: section changes smoothly (girth slope at most ~1 mm per mm)
+#: a cloud's calf section or feature layer whose own slab cannot be closed is
+#: interpolated from the closed calf sections at most this far above and below it, mm:
+#: the reach of a sparse cloud's slab (app.geometry.point_sections.MAX_HALF_MM), over
+#: which a leg's section changes smoothly (girth slope at most ~1 mm per mm)
 LAYER_BRIDGE_MM = 10.0
 
 
-def bridge_layers(layers: PolarSections, sections: PolarSections) -> PolarSections:
+def bridge_sections(layers: PolarSections, sections: PolarSections) -> PolarSections:
     """``layers`` with each missing row linearly interpolated (centroid and radii on the
     shared rays) between the nearest closed rows of ``sections`` below and above it,
     when both lie within :data:`LAYER_BRIDGE_MM`; other rows as they are.  Both (k, a)
-    on the same ``a`` rays, heights in mm."""
+    on the same ``a`` rays, heights in mm (``layers`` may be ``sections`` itself)."""
     radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
     closed = np.flatnonzero(sections.valid)
     z = sections.heights_mm[closed]
-    for row in np.flatnonzero(~layers.valid):  # at most the 7 layers
+    for row in np.flatnonzero(~layers.valid):  # the few open rows
         h = layers.heights_mm[row]
         below, above = closed[z <= h], closed[z >= h]
         if not below.size or not above.size:
@@ -258,6 +259,9 @@ def fit_calf(
     density = None if faces is not None else len(in_calf) / max(d_mm - b_mm, 1e-9)  # a cloud's points per mm
     covered = float(np.median(sections.coverage))
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
+    if density is not None and valid.mean() < 0.9:  # a sparse cloud's open slabs, from their neighbours
+        sections = bridge_sections(sections, sections)
+        valid = sections.valid
     if valid.mean() < 0.9:
         if sparse and density is not None:
             raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
@@ -269,7 +273,7 @@ def fit_calf(
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if sparse and not layer_sections.valid.all():
-        layer_sections = bridge_layers(layer_sections, sections)
+        layer_sections = bridge_sections(layer_sections, sections)
     if not layer_sections.valid.all():
         if sparse and density is not None:
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())

@@ -22,10 +22,13 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import find_peaks
 
-from app.geometry.errors import FailureReason, FitFailure, FootFound
+from app.geometry.errors import FailureReason, FitFailure, FootFound, RisesToEdge
 
-#: Gaussian smoothing of the circumference profile, mm
+#: Gaussian smoothing of the circumference profile, mm; and the profile noise beyond
+#: which it grows, up to the slab thickness of the sparsest clouds (smooth_profile)
 PROFILE_SMOOTHING_MM = 4.0
+PROFILE_NOISE_MM = 1.0
+MAX_PROFILE_SMOOTHING_MM = 20.0
 #: B lies 100-350 mm below C (reference legs 190-265, MakeHuman range 219-246); D lies
 #: 30-250 mm above C (adult lower legs)
 ANKLE_BELOW_CALF_MM = (100.0, 350.0)
@@ -173,6 +176,11 @@ class FeatureHeights:
 def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PROFILE_SMOOTHING_MM) -> np.ndarray:
     """Gaussian-smoothed girth profile; NaN sections are bridged linearly first.
 
+    The smoothing grows with the profile's own noise (:func:`profile_noise`): beyond
+    :data:`PROFILE_NOISE_MM` the sigma is scaled by noise / PROFILE_NOISE_MM, up to
+    :data:`MAX_PROFILE_SMOOTHING_MM`.  A scan's profile has 0.2-0.5 mm of noise and
+    keeps the 4 mm sigma; a sparse cloud's (slabs 20 mm thick catching a few points of
+    each ring) has 3-8 mm, whose bumps would otherwise pass for calves and waists.
     heights (k,) ascending and evenly spaced, girth (k,) mm; returns (k,).
     """
     ok = np.isfinite(girth)
@@ -180,7 +188,17 @@ def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PRO
         raise FitFailure(FailureReason.NOT_A_LEG, "too few cross-sections could be measured")
     filled = np.interp(heights, heights[ok], girth[ok])
     spacing = float(np.median(np.diff(heights)))
+    noise = profile_noise(filled, sigma_mm / spacing)
+    if noise > PROFILE_NOISE_MM:
+        sigma_mm = min(sigma_mm * noise / PROFILE_NOISE_MM, MAX_PROFILE_SMOOTHING_MM)
     return gaussian_filter1d(filled, sigma_mm / spacing, mode="nearest")
+
+
+def profile_noise(girth: np.ndarray, sigma_samples: float) -> float:
+    """Robust standard deviation (1.4826 x MAD, mm) of a gap-free girth profile (k,)
+    about its Gaussian smoothing of ``sigma_samples``."""
+    residual = girth - gaussian_filter1d(girth, sigma_samples, mode="nearest")
+    return float(1.4826 * np.median(np.abs(residual - np.median(residual))))
 
 
 def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -364,10 +382,11 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         # no bulge inside the scan: when the girth is largest at one end, the scan stops
         # inside the calf (the up end: the knee waist is missing; the down end: the ankle)
         widest = heights[ok][np.argmax(g[ok])]
+        narrowest_h = heights[ok][np.argmin(g[ok])]
         if top - widest <= INTERIOR_MARGIN_MM * 5:
-            raise _no_knee(top - bottom)
+            raise _ends_inside_calf(top - narrowest_h, float(g[ok].min()), float(g[ok].max()), at_top=True)
         if widest - bottom <= INTERIOR_MARGIN_MM * 5:
-            raise _no_ankle(top - bottom)
+            raise _ends_inside_calf(narrowest_h - bottom, float(g[ok].min()), float(g[ok].max()), at_top=False)
         raise _no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
     failures: list[tuple[float, float, FitFailure]] = []
     for group in (peaks, shoulders):
@@ -403,16 +422,24 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     # the top edge (the knee waist is missing); below it, at the bottom edge (the ankle)
     # (only when no candidate found even an ankle: otherwise that candidate says more)
     finite = np.flatnonzero(ok)
+    if elongation is not None:  # the narrowest section of the leg, above its foot (not the toes)
+        footlike = finite[np.nan_to_num(elongation[finite]) > MAX_CALF_ELONGATION]
+        if footlike.size and (finite > footlike.max()).sum() >= 3:
+            finite = finite[finite > footlike.max()]
     narrowest = finite[np.argmin(g[finite])]
     up = finite[finite > narrowest]
-    got_ankle = any(stage >= 1 for stage, _, _ in failures)
+    got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) for _, _, failure in failures)
     # (only when the girth rises without a bulge from the narrowest point to the top: a
     # scan holding a calf, a knee and a thigh above its narrowest point does not stop
     # inside the calf)
     dips = find_peaks(-g, prominence=1.0)[0]
     rising = up.size and not np.isin(up, dips).any()
-    if near_c_mm is None and not got_ankle and rising and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM:
-        raise _no_knee(top - bottom)
+    # (and rises over at least the shortest ankle-to-calf distance: a foot with a few
+    # centimetres of shin above its ankle is a foot, not a calf cut short)
+    long_rise = top - heights[narrowest] >= ANKLE_BELOW_CALF_MM[0]
+    if (near_c_mm is None and not got_ankle and rising and long_rise
+            and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM):
+        raise _ends_inside_calf(top - heights[narrowest], float(g[narrowest]), float(g[up].max()), at_top=True)
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     raise max(failures, key=lambda item: (item[0], item[1]))[2]
@@ -445,8 +472,13 @@ FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureRe
 def failure_stage(failure: FitFailure) -> float:
     """How informative a candidate's refusal is: :data:`FAILURE_STAGE`, and a found foot
     (:class:`FootFound`) between a missing ankle and a missing knee (it identified the
-    bulge; a missing ankle only did not find one below it; a missing knee found both)."""
-    return 1.5 if isinstance(failure, FootFound) else FAILURE_STAGE.get(failure.reason, 0)
+    bulge; a missing ankle only did not find one below it; a missing knee found both);
+    a girth that only rises to an edge (:class:`RisesToEdge`) below a missing ankle."""
+    if isinstance(failure, FootFound):
+        return 1.5
+    if isinstance(failure, RisesToEdge):
+        return 0.5
+    return FAILURE_STAGE.get(failure.reason, 0)
 
 
 def _no_ankle(span_mm: float) -> FitFailure:
@@ -465,6 +497,24 @@ def _no_knee(span_mm: float) -> FitFailure:
         f"scan reaches {span_mm:.0f} mm above the calf maximum, where the leg is still narrowing. "
         "Re-scan up to at least 3 cm above the knee joint (over the kneecap).",
     )
+
+
+def _ends_inside_calf(rise_mm: float, low_mm: float, high_mm: float, at_top: bool) -> FitFailure:
+    """The scan stops while the girth is still rising towards the calf: no calf maximum,
+    and the waist beyond it, in the scan.  ``rise_mm``: from the narrowest section to
+    the scan's edge, over which the girth rises from ``low_mm`` to ``high_mm``."""
+    if at_top:
+        return RisesToEdge(
+            FailureReason.NO_KNEE,
+            f"the scan ends inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm up to the "
+            f"scan's top edge ({low_mm:.0f} to {high_mm:.0f} mm) without reaching the calf maximum, so the calf "
+            "maximum C and the knee waist D above it are not in the scan. Re-scan up to at least 3 cm above the "
+            "knee joint (over the kneecap).")
+    return RisesToEdge(
+        FailureReason.NO_ANKLE,
+        f"the scan starts inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm down to the "
+        f"scan's bottom edge ({low_mm:.0f} to {high_mm:.0f} mm), so the ankle B below the calf is not in the scan. "
+        "Re-scan from below the ankle bones (best: include the heel and foot).")
 
 
 def _no_calf(detail: str) -> FitFailure:

@@ -26,7 +26,7 @@ import numpy as np
 from app.geometry import calf_frame as cf
 from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.knee_bend import keep_index, shank_runs
-from app.geometry.landmarks import FeatureHeights, failure_stage, find_feature_heights
+from app.geometry.landmarks import MAX_CALF_ELONGATION, FeatureHeights, failure_stage, find_feature_heights
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
 #: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
@@ -207,14 +207,22 @@ def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) 
             failures.append((failure, flipped))
     if found:
         return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
-    # a foot found one way outranks a missing ankle the other way (the foot read as a
-    # calf upside down); a missing knee found an ankle and a calf, and stays
+    # report the failure of the more plausible orientation: the foot's end down (a foot
+    # is at the bottom of a leg; its sections are elongated, MAX_CALF_ELONGATION); with
+    # no end told by a foot, a foot found one way outranks a missing ankle the other way
+    # (the foot read as a calf upside down; a missing knee found an ankle and a calf,
+    # and stays); else the knee end thicker
+    measured = girth[np.isfinite(girth)]
+    tenth = max(len(measured) // 10, 1)
+    stretched = elongation[np.isfinite(elongation)]
+    if stretched.size >= 2 * tenth:
+        foot_low = bool(np.median(stretched[:tenth]) > MAX_CALF_ELONGATION)
+        foot_high = bool(np.median(stretched[-tenth:]) > MAX_CALF_ELONGATION)
+        if foot_low != foot_high:
+            raise failures[0][0] if foot_low else failures[1][0]
     feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
     if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
         raise feet[0]
-    # report the failure of the more plausible orientation: knee end thicker
-    measured = girth[np.isfinite(girth)]
-    tenth = max(len(measured) // 10, 1)
     ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
     raise failures[0][0] if ends_up else failures[1][0]
 

@@ -28,7 +28,8 @@ from app.geometry import calf_frame as cf
 from app.geometry.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
-from app.geometry.leg_size import check_leg_size, with_unit_hint
+from app.geometry.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
+from app.geometry.point_sections import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.scan_io import MIN_POINTS, Scan
 from app.geometry.side import infer_side
 
@@ -188,6 +189,17 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         return _place_leg(scan, side)
     except FitFailure as failure:
         extent = float(np.ptp(scan.points_mm, axis=0).max()) if len(scan.points_mm) else 0.0
+        if not scan.is_mesh and failure.reason in SHAPE_REASONS and failure.reason is not FailureReason.TOO_SPARSE:
+            # a cloud too sparse to measure fails on its shape; over its length it needs
+            # twice a leg's density (a body or two legs hold two legs side by side)
+            density = len(scan.points_mm) / max(extent, 1e-9)
+            if density < 2 * MIN_CLOUD_POINTS_PER_MM:
+                raise FitFailure(
+                    FailureReason.TOO_SPARSE,
+                    f"the cloud is too sparse to find the leg in: it has {density:.1f} points per mm of its length; a "
+                    f"cloud needs about {MIN_CLOUD_POINTS_PER_MM:g} point per mm of each leg's height "
+                    f"({2 * MIN_CLOUD_POINTS_PER_MM:g} per mm of a body's or two legs' length) to close its sections: "
+                    "export the scan denser, or as a mesh") from failure
         hinted = with_unit_hint(failure, extent, scan.units, scan.units_detected)
         if hinted is failure:
             raise
