@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Body, Depends, Request
+from fastapi import APIRouter, Body, Depends, Request, Response
 from fastapi.concurrency import run_in_threadpool
-from fastapi.encoders import jsonable_encoder
-from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
@@ -23,7 +21,7 @@ router = APIRouter(prefix="/api/v1", tags=["populations"], responses=auth_proble
 @router.post(
     "/populations",
     status_code=201,
-    response_model=PopulationOut,
+    response_model=PopulationOut | PopulationRefitting,
     summary="A population of records: the average calf (stored as a record), the main modes of variation and "
             "the girth percentiles at B, B1, C, D",
     description="Records that are not lsq records on the grid are refitted in mode lsq on their stored scans by "
@@ -41,6 +39,7 @@ router = APIRouter(prefix="/api/v1", tags=["populations"], responses=auth_proble
 )
 async def create_population(
     request: Request,
+    response: Response,
     body: PopulationRequest = Body(...),
     session: Session = Depends(get_session),
     store: ScanStore = Depends(get_store),
@@ -54,5 +53,8 @@ async def create_population(
         for job_id in result.new_job_ids:  # after the commit: a worker never sees an uncommitted job
             await runner.submitted(job_id)
         view = result.view()
-        return JSONResponse(jsonable_encoder(view), status_code=202, headers={"Retry-After": str(view["retry_after_s"])})
-    return JSONResponse(jsonable_encoder(result), status_code=201, headers={"Location": result["links"]["average"]})
+        response.status_code = 202
+        response.headers["Retry-After"] = str(view["retry_after_s"])
+        return view
+    response.headers["Location"] = result["links"]["average"]
+    return result

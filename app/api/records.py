@@ -7,8 +7,6 @@ from typing import Literal
 
 from fastapi import APIRouter, Body, Depends, Query, Request, Response
 from fastapi.concurrency import run_in_threadpool
-from fastapi.encoders import jsonable_encoder
-from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
@@ -83,11 +81,11 @@ def list_records(
 
 @router.get("/records/{record_id}", response_model=RecordOut, summary="A record: control points, knots, weights, landmarks, fit statistics",
             responses=problems(s404="record_not_found"))
-def get_record(record_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
+def get_record(record_id: str, response: Response, session: Session = Depends(get_session),
+               principal: Principal = Depends(authorize("read"))):
     record = RecordService(session, principal.tenant_id).get(record_id)
-    response = JSONResponse(jsonable_encoder(record_out(record)))
     response.headers["ETag"] = f'"{record.etag}"'
-    return response
+    return record_out(record)
 
 
 @router.post("/records", status_code=201, response_model=RecordOut, summary="Import a record made elsewhere (validated)",
@@ -98,12 +96,13 @@ def get_record(record_id: str, session: Session = Depends(get_session), principa
                                    "along v, under 20 mm long); surface_too_costly: a patch cost (nu - p)(nv - q)"
                                    "(p + 1)(q + 1) over 50,000, a net over 1,200 mm tall or 300 mm from the axis; "
                                    "invalid_request", s413="payload_too_large: a body over CALF_MAX_JSON_KB")})
-def import_record(data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
+def import_record(response: Response, data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
                   session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
     service = RecordService(session, principal.tenant_id)
     record = service.import_record(data.model_dump(exclude_none=True))
     session.commit()
-    return JSONResponse(jsonable_encoder(record_out(record)), status_code=201, headers={"Location": f"/api/v1/records/{record.id}"})
+    response.headers["Location"] = f"/api/v1/records/{record.id}"
+    return record_out(record)
 
 
 @router.delete("/records/{record_id}", status_code=204, summary="Delete a record (its scan stays stored)",
