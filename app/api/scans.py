@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-import time
 from typing import Literal
 
 from fastapi import APIRouter, Depends, Query, Request
 from fastapi.concurrency import run_in_threadpool
-from fastapi.encoders import jsonable_encoder
 from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
@@ -16,14 +14,13 @@ from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
-from app.errors import TooManyRequests, Unavailable
-from app.geometry.errors import FitFailure
 from app.geometry.scan_io import SUPPORTED_FORMATS
 from app.jobs.runner import EmbeddedRunner
-from app.services.fitting import parse_options, validate_scan_file
-from app.services.jobs import JobService, job_view
+from app.services.fitting import parse_options
+from app.services.jobs import JobService
 from app.services.keys import Principal
 from app.services.storage import ScanStore
+from app.services.upload_flow import UploadFlow
 from app.services.uploads import MEDIA_TYPES, receive_upload
 from app.settings import Settings
 
@@ -117,41 +114,13 @@ async def upload_scan(
         upload.discard()
         raise
 
+    flow = UploadFlow(session, principal.tenant_id, store, runner, request.app.state.check_gate,
+                      request.app.state.metrics.check_seconds, settings.validation_timeout_s,
+                      settings.max_scan_points, settings.max_scan_faces)
+
     async def check_and_queue(stage: Stage | None) -> JSONResponse:
-        # the quick acceptance check runs in a worker process: reading the file and
-        # finding the calf (ankle, calf, knee); nothing is stored if it fails (the
-        # received file is discarded below, on any failure)
-        started, outcome = time.perf_counter(), "runner_unavailable"
-        try:
-            async with request.app.state.check_gate.slot(principal.tenant_id):  # fair share of the check pool
-                with runner.busy(principal.tenant_id) as nice:
-                    placement = await runner.run_in_worker(
-                        validate_scan_file, str(upload.temp_path), upload.file_format, options, settings.max_scan_points,
-                        settings.max_scan_faces, nice, timeout=settings.validation_timeout_s
-                    )
-            outcome = "accepted"
-        except TimeoutError as exc:
-            outcome = "check_timeout"
-            raise Unavailable(f"checking the scan took longer than {settings.validation_timeout_s:g} s", code="check_timeout") from exc
-        except FitFailure as failure:
-            outcome = failure.reason.value
-            raise
-        except TooManyRequests:
-            outcome = "too_many_checks"
-            raise
-        finally:
-            request.app.state.metrics.check_seconds.labels(outcome).observe(time.perf_counter() - started)
-        answer: dict = {}
-
-        def keep_answer(job, scan, reused) -> None:  # in the job's transaction
-            answer["body"] = jsonable_encoder(job_view(job, scan, reused))
-            if stage is not None:
-                stage(202, answer["body"], f"/api/v1/jobs/{job.id}")
-
-        job, scan, reused = await run_in_threadpool(JobService(session, principal.tenant_id).submit, upload, options,
-                                                    store, placement, keep_answer)
-        await runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
-        return JSONResponse(answer["body"], status_code=202, headers={"Location": f"/api/v1/jobs/{job.id}"})
+        queued = await flow.check_and_queue(upload, options, stage)
+        return JSONResponse(queued.body, status_code=202, headers={"Location": queued.location})
 
     content = {"sha256": upload.sha256, "format": upload.file_format, "options": options}
     try:

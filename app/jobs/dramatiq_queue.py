@@ -133,16 +133,16 @@ def fit_job(job_id: str) -> None:
         try:
             outcome = fit_scan_file(claimed.path, claimed.file_format, claimed.options, claimed.placement)
         except FitFailure as failure:
-            lifecycle.fail(context.sessions, context.owner, job_id, failure.reason.value, failure.detail)
+            lifecycle.conclude(context.sessions, context.owner, job_id, failure=failure)
             return
         except TimeLimitExceeded:
-            lifecycle.fail(context.sessions, context.owner, job_id, "timeout", lifecycle.timeout_detail(settings.job_timeout_s))
+            lifecycle.conclude(context.sessions, context.owner, job_id, timeout_s=settings.job_timeout_s)
             return
         except Exception:
             log.exception("job %s failed unexpectedly; Dramatiq retries it", job_id)
             lifecycle.release(context.sessions, context.owner, job_id)
             raise
-    lifecycle.succeed(context.sessions, context.owner, job_id, outcome)
+    lifecycle.conclude(context.sessions, context.owner, job_id, outcome=outcome)
 
 
 def send(job_id: str) -> None:

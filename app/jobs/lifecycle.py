@@ -20,6 +20,7 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from app.db.models import utcnow
 from app.db.repositories import JobRepository, RecordRepository, ScanRepository
+from app.geometry.errors import FitFailure
 from app.services.records import record_etag
 from app.services.storage import ScanStore
 
@@ -105,6 +106,23 @@ def succeed(sessions: sessionmaker[Session], owner: str, job_id: str, outcome: d
 def fail(sessions: sessionmaker[Session], owner: str, job_id: str, code: str, detail: str) -> None:
     with sessions() as session, session.begin():
         JobRepository(session).fail(job_id, code, detail, owner=owner)
+
+
+def conclude(sessions: sessionmaker[Session], owner: str, job_id: str, *, outcome: dict | None = None,
+             failure: FitFailure | None = None, timeout_s: float | None = None) -> str | None:
+    """Store how a fit ended, the one path both runners take (the embedded pool and
+    Dramatiq's workers): the record of ``outcome``, the reason of ``failure``, or a
+    timeout after ``timeout_s``.  Returns the job's failure code, None for a record."""
+    if failure is not None:
+        fail(sessions, owner, job_id, failure.reason.value, failure.detail)
+        return failure.reason.value
+    if timeout_s is not None:
+        fail(sessions, owner, job_id, "timeout", timeout_detail(timeout_s))
+        return "timeout"
+    if outcome is None:
+        raise ValueError("a concluded fit has an outcome, a failure or a timeout")
+    succeed(sessions, owner, job_id, outcome)
+    return None
 
 
 def status(sessions: sessionmaker[Session], job_id: str) -> str | None:

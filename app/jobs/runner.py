@@ -48,7 +48,7 @@ from sqlalchemy.orm import Session, sessionmaker
 from app.errors import Unavailable
 from app.geometry.errors import FitFailure
 from app.jobs import lifecycle
-from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL, timeout_detail
+from app.jobs.lifecycle import INTERNAL_ERROR_DETAIL
 from app.services.fitting import LIBC, fit_scan_file, warm_up
 from app.services.jobs import job_status_counts
 from app.services.storage import ScanStore
@@ -318,18 +318,16 @@ class EmbeddedRunner:
         """Fit one claimed job and store its outcome; the failure code, None for a
         record, or "retried" when the job went back to the queue."""
         generation = self.fit_pool.generation
-        fail = functools.partial(asyncio.to_thread, lifecycle.fail, self.sessions, self.owner, job.job_id)
+        conclude = functools.partial(asyncio.to_thread, lifecycle.conclude, self.sessions, self.owner, job.job_id)
         try:
             with self.busy(job.tenant_id) as nice:
                 outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
                                                   nice, timeout=self.job_timeout_s)
         except FitFailure as failure:
-            await fail(failure.reason.value, failure.detail)
-            return failure.reason.value
+            return await conclude(failure=failure)
         except TimeoutError:
             self.fit_pool.replace(generation)  # its process is killed: the slot is free again
-            await fail("timeout", timeout_detail(self.job_timeout_s))
-            return "timeout"
+            return await conclude(timeout_s=self.job_timeout_s)
         except BrokenProcessPool:
             log.warning("the worker process of job %s died; the job goes back to the queue", job.job_id)
             self.fit_pool.replace(generation)
@@ -339,7 +337,7 @@ class EmbeddedRunner:
             raise  # shutting down: stop() hands the job back
         except Exception:  # a bug: record it on the job rather than lose it
             log.exception("job %s failed unexpectedly", job.job_id)
-            await fail("internal_error", INTERNAL_ERROR_DETAIL)
+            await asyncio.to_thread(lifecycle.fail, self.sessions, self.owner, job.job_id, "internal_error",
+                                    INTERNAL_ERROR_DETAIL)
             return "internal_error"
-        await asyncio.to_thread(lifecycle.succeed, self.sessions, self.owner, job.job_id, outcome)
-        return None
+        return await conclude(outcome=outcome)
