@@ -200,18 +200,29 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
     if spacing_p95_mm is None:
         spacing_p95_mm = point_spacing(points_mm, 95.0)
     pixel = max(10.0, 2.0 * spacing_p95_mm)
-    shares = []
+    shares, pair_sizes = [], []
     for sign in (1.0, -1.0):
-        pairs = 0
+        pairs, sizes_near = 0, []
         fractions = np.linspace(0.10, 0.50, 9)
         for f in fractions:
             level = lo + f * length if sign > 0 else hi - f * length
             sizes = _slab_blob_sizes(local[(h >= level - 10.0) & (h < level + 10.0), :2], pixel)
-            pairs += int(sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0])
+            paired = sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0]
+            pairs += int(paired)
+            if paired and f <= 0.30:
+                sizes_near.append(sizes[0] + sizes[1])
         shares.append(pairs / len(fractions))
+        pair_sizes.append(float(np.mean(sizes_near)) if sizes_near else np.inf)
     if max(shares) < TWO_LEG_SLAB_SHARE:
         return None
-    sign = 1.0 if shares[0] >= shares[1] else -1.0
+    # the feet end: two legs joined at the hips pair up from both ends (shins at one,
+    # thighs at the other), so the share alone cannot tell the ends; the shins and
+    # ankles 10-30% from the feet are far thinner than the thighs 10-30% from the hips
+    # (ankle girth ~220 mm, thigh ~550 mm)
+    if min(shares) >= TWO_LEG_SLAB_SHARE and np.isfinite(pair_sizes).all():
+        sign = 1.0 if pair_sizes[0] <= pair_sizes[1] else -1.0
+    else:
+        sign = 1.0 if shares[0] >= shares[1] else -1.0
     height = (h - lo) if sign > 0 else (hi - h)
     side_coord = _shin_side_coordinate(local, (height > 0.10 * length) & (height < 0.40 * length), True)
     if side_coord is None:
