@@ -4,7 +4,15 @@ minimum?  Synthetic girth profiles (mm) of a smooth waist cut near its minimum."
 import numpy as np
 import pytest
 
-from app.geometry.landmarks import CROWN_FRACTION, EDGE_REACH_MM, _minimum_reached_at_edge
+from app.geometry.landmarks import (
+    CROWN_FRACTION,
+    EDGE_REACH_MM,
+    HIGH_CONFIDENCE_MM,
+    WAIST_FIT_MM,
+    _minimum_reached_at_edge,
+    height_tolerances,
+    waist_vertex,
+)
 
 
 def _waist(vertex_beyond_mm: float, depth_fraction: float, girth_mm: float = 220.0, reach_mm: float = 40.0):
@@ -36,13 +44,6 @@ def test_a_girth_that_rises_from_the_edge_has_its_minimum_inside():
 
 
 # --- the waists' vertex and every landmark's height tolerance -------------------------
-
-from app.geometry.landmarks import (  # noqa: E402
-    HIGH_CONFIDENCE_MM,
-    WAIST_FIT_MM,
-    height_tolerances,
-    waist_vertex,
-)
 
 
 def _noisy_waist(rng, vertex_mm: float, noise_mm: float = 0.3):

@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import trimesh
+from scipy.spatial import ConvexHull
 
 from app.geometry.errors import FitFailure
-from app.geometry.fit import check_scan
+from app.geometry.fit import FitOptions, check_scan
 from app.geometry.leg_size import MAX_CALF_GIRTH_MM, MIN_CALF_GIRTH_MM, likeliest_unit
 from app.geometry.scan_io import load_scan
+from benchmarks.corpus.degrade import crop
 from benchmarks.hostile_inputs import leg_in_inches
+from tests.conftest import REAL
 
 
 @pytest.mark.parametrize("units", [None, "cm"])
@@ -38,12 +42,7 @@ def test_no_adult_calf_in_another_unit_reads_as_plausible():
 
 # --- a refusal on a scan read in the wrong unit names the unit -------------------------
 
-import trimesh  # noqa: E402
-from scipy.spatial import ConvexHull  # noqa: E402
 
-from app.geometry.fit import FitOptions  # noqa: E402
-from benchmarks.corpus.degrade import crop  # noqa: E402
-from tests.conftest import REAL  # noqa: E402
 
 
 def test_a_body_in_centimetres_read_as_millimetres_is_refused_naming_centimetres(tmp_path):

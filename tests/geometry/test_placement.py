@@ -3,8 +3,13 @@ and said."""
 
 from __future__ import annotations
 
-from app.geometry.fit import FitOptions, check_scan
+import numpy as np
+import pytest
+import trimesh
+
+from app.geometry.fit import FitOptions, check_scan, fit_scan
 from app.geometry.scan_io import load_scan
+from benchmarks.corpus.degrade import coarsen, crop
 from tests.conftest import REAL
 
 
@@ -23,11 +28,7 @@ def test_a_side_given_against_a_confident_foot_is_kept_with_a_warning():
 
 # --- coarse meshes and the vertices of a body as a cloud --------------------------------
 
-import pytest  # noqa: E402
-import trimesh  # noqa: E402
 
-from app.geometry.fit import fit_scan  # noqa: E402
-from benchmarks.corpus.degrade import coarsen  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -66,3 +67,23 @@ def test_a_bodys_vertices_as_a_cloud_fit(female_body, tmp_path):
     for name in ("B", "C"):
         assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
     assert any("sparse" in w for w in fit.warnings)
+
+
+@pytest.mark.parametrize("turned", [False, True])
+def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path, turned):
+    """The body cut 45% of its height above the soles (feet to hips, two legs joined at
+    the top) pairs up from both ends - shins at one, thighs at the other; its feet end
+    is the thinner one, whichever way up the file stands, and the left calf is the body's."""
+    body, full = female_body
+    vertices = body.points_mm
+    up = np.array([0.0, 1.0, 0.0])  # the Visible Human files stand along +y
+    sole = vertices[:, 1].min()
+    cut = crop(trimesh.Trimesh(vertices, body.faces, process=False),
+               np.array([0.0, sole + 0.45 * np.ptp(vertices[:, 1]), 0.0]), -up)
+    if turned:  # upside down: the hips at the bottom of the file
+        cut.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [0.0, 0.0, 1.0]))
+    path = tmp_path / "two_legs.ply"
+    cut.export(path)
+    fit = fit_scan(load_scan(path), FitOptions(side="left"))
+    for name in ("B", "C"):
+        assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
