@@ -45,6 +45,17 @@ KINDS: dict[str, tuple[float, str]] = {
     "fragment": (0.04, "fit"),              # a piece of the other leg and spikes
     "seated": (0.05, "fit"),                # knee bent 30-100 degrees, foot to hip
     "plantar": (0.04, "fit"),               # foot pointed 20-45 degrees
+    # a scanner's mesh exported as its vertices only (a PLY without faces): the ring
+    # structure of a tessellation, 1.5-2 mm apart (three Loop subdivisions), 0-0.5 mm
+    # noise, holes on half of them
+    "vertex_cloud": (0.04, "fit"),
+    # a coarse body: both legs feet to hips as a mesh of 2-4k vertices (the
+    # unsubdivided model, edges p95 ~35 mm, as registered body meshes are), side given;
+    # and the same legs' vertices after one subdivision (10-15k points) as a cloud
+    "coarse_mesh": (0.03, "fit"),
+    "body_vertices": (0.03, "fit"),
+    # 3-10k vertices over one lower leg (foot to above the knee), as a cloud
+    "sparse_leg_vertices": (0.03, "fit"),
     "cut_above_ankle": (0.025, "no_ankle"),  # starts 40-80 mm above B
     "cut_below_knee": (0.025, "no_knee"),    # ends 30-60 mm below D
 }
@@ -120,7 +131,10 @@ def build_case(spec: CaseSpec) -> Case:
     knee_flexion = float(rng.uniform(30.0, 100.0)) if kind == "seated" else 0.0
     plantar = float(rng.uniform(20.0, 45.0)) if kind == "plantar" else 0.0
     leg_rng = rng if spec.leg_seed is None else np.random.default_rng(spec.leg_seed)
-    legs = sized_legs(subject, leg_rng, knee_flexion, plantar)
+    # the tessellation a kind is scanned at: Loop subdivisions of the MakeHuman mesh
+    # (0: edges p50 8 mm, p95 34 mm; 1: 4 / 17 mm; 2: ~3.5 mm mean; 3: ~1.7 mm)
+    subdivisions = {"vertex_cloud": 3, "coarse_mesh": 0, "body_vertices": 1, "sparse_leg_vertices": 1}.get(kind, 2)
+    legs = sized_legs(subject, leg_rng, knee_flexion, plantar, subdivisions=subdivisions)
     sign = float(leg_rng.choice([1.0, -1.0]))  # +1 MakeHuman's left leg (x > 0)
     prefix = "l" if sign > 0 else "r"
     leg = leg_submesh(legs.vertices, legs.faces, sign)
@@ -154,7 +168,7 @@ def build_case(spec: CaseSpec) -> Case:
     if kind == "noise":
         notes["noise_mm"] = float(rng.uniform(0.3, 1.0))
         mesh = degrade.vertex_noise(mesh, notes["noise_mm"], rng)
-    if kind in ("two_legs", "two_legs_no_side"):
+    if kind in ("two_legs", "two_legs_no_side", "coarse_mesh", "body_vertices"):
         mesh = trimesh.Trimesh(legs.vertices, legs.faces, process=False)
     if kind == "fragment":
         other = leg_submesh(legs.vertices, legs.faces, -sign)
@@ -170,7 +184,21 @@ def build_case(spec: CaseSpec) -> Case:
             mesh = trimesh.util.concatenate([mesh, ground])
 
     cloud = None
-    if kind.startswith("cloud") or kind.endswith("_cloud"):
+    if kind == "sparse_leg_vertices":  # foot to 15-45 mm above D, like a knee-high scan
+        reach = rng.uniform(15.0, 45.0)
+        notes["top_above_D_mm"] = float(reach)
+        mesh = degrade.crop(mesh, d + reach * axis, -degrade.tilted(axis, 8.0, rng))
+    if kind in ("vertex_cloud", "body_vertices", "sparse_leg_vertices"):
+        cloud = np.asarray(mesh.vertices, dtype=np.float64)
+        if kind == "vertex_cloud":
+            notes["noise_mm"] = float(rng.uniform(0.0, 0.5))
+            cloud = degrade.cloud_noise(cloud, notes["noise_mm"], rng)
+            if rng.random() < 0.5:
+                centres, radii = degrade.holes_on_calf(mesh, b, d, int(rng.integers(3, 7)), rng)
+                notes["holes_mm"] = (2 * radii).round(1).tolist()
+                cloud = degrade.cloud_holes(cloud, centres, radii)
+        notes["n_points"] = int(len(cloud))
+    elif kind.startswith("cloud") or kind.endswith("_cloud"):
         area = mesh.area
         cloud = degrade.sample_cloud(mesh, int(np.clip(area * rng.uniform(0.25, 0.5), 40_000, 120_000)), rng)
         if kind == "cloud_noise":
@@ -208,7 +236,7 @@ def build_case(spec: CaseSpec) -> Case:
         expect = "no_knee"
     notes["knee_hidden"] = truth.knee_hidden
     side = None
-    if kind in ("two_legs",):
+    if kind in ("two_legs", "coarse_mesh", "body_vertices"):
         side = true_side
     elif kind not in ("two_legs_no_side",) and rng.random() < 0.3:
         side = true_side
