@@ -8,7 +8,7 @@ Geometry: the surface is written in the record's own frame, in millimetres - B a
 origin, z up the leg, y anterior (the calf frame); the record's ``frame`` matrix places
 it in the scan.  The periodic u direction is written in its unwrapped, non-periodic form
 (the first 3 control columns repeated, every knot written out; see
-:mod:`app.geometry.nurbs`), which every NURBS reader evaluates identically; the valid
+:mod:`app.geometry.spline.nurbs`), which every NURBS reader evaluates identically; the valid
 domain is [knots_u[3], knots_u[nu]] x [knots_v[3], knots_v[nv]].
 
 - STEP (ISO 10303-21, schema AP214) and IGES 5.3 through OpenCASCADE (``cadquery-ocp``):
@@ -31,7 +31,7 @@ import tempfile
 
 import numpy as np
 
-from app.geometry.nurbs import NurbsSurface
+from app.geometry.spline.nurbs import NurbsSurface
 
 CAD_FORMATS = ("step", "iges", "3dm", "geomdl")
 CAD_MEDIA_TYPES = {

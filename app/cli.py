@@ -50,8 +50,8 @@ exit codes: 0 done; 2 bad usage; 3 the scan, record or a file cannot be processe
 
 
 def _epilog() -> str:
-    from app.geometry.scan_io import SUPPORTED_FORMATS
-    from app.geometry.standards import COMPRESSION_CLASSES
+    from app.geometry.garment.standards import COMPRESSION_CLASSES
+    from app.geometry.scan.reader import SUPPORTED_FORMATS
 
     classes = "; ".join(f"{standard} {', '.join(spec['classes'])}" for standard, spec in COMPRESSION_CLASSES.items())
     return EPILOG.format(formats=", ".join(SUPPORTED_FORMATS), cad=", ".join(CAD_FORMATS), classes=classes)
@@ -75,9 +75,9 @@ def fit_summary(record_dict: dict) -> dict:
 
 
 def _cmd_fit(args: argparse.Namespace) -> int:
-    from app.geometry.fit import FitOptions, fit_scan
-    from app.geometry.record import record_from_fit
-    from app.geometry.scan_io import load_scan
+    from app.geometry.fit.pipeline import FitOptions, fit_scan
+    from app.geometry.scan.reader import load_scan
+    from app.records.codec import record_from_fit
 
     started = time.perf_counter()
     try:
@@ -101,7 +101,7 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 
 
 def _load_record(path: str):
-    from app.geometry.record import CalfRecord
+    from app.records.codec import CalfRecord
 
     try:
         return CalfRecord.from_dict(json.loads(Path(path).read_text()))
@@ -112,7 +112,7 @@ def _load_record(path: str):
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from app.geometry.exchange import export_mesh, surface_mesh
+    from app.records.meshes import export_mesh, surface_mesh
 
     try:
         record = _load_record(args.record)

@@ -39,15 +39,15 @@ sys.path.insert(0, str(ROOT))
 
 from scipy.spatial import cKDTree  # noqa: E402
 
-from app.geometry.fit import MAX_ERROR_POINTS, FitOptions, fit_scan  # noqa: E402
-from app.geometry.lsq import LsqGrid, fit_lsq_surface, section_points  # noqa: E402
-from app.geometry.measure import girths  # noqa: E402
-from app.geometry.nurbs import NurbsSurface, evaluate_grid  # noqa: E402
-from app.geometry.placement import replace_leg  # noqa: E402
-from app.geometry.record import record_from_fit  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
-from app.geometry.surface_error import algorithm1_distances  # noqa: E402
-from app.geometry.volume import cut_height_range  # noqa: E402
+from app.geometry.fit.pipeline import MAX_ERROR_POINTS, FitOptions, fit_scan  # noqa: E402
+from app.geometry.measures.surface_girths import girths  # noqa: E402
+from app.geometry.measures.volume import cut_height_range  # noqa: E402
+from app.geometry.placement.place import replace_leg  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.geometry.spline.distance import algorithm1_distances  # noqa: E402
+from app.geometry.spline.lsq import LsqGrid, fit_lsq_surface, section_points  # noqa: E402
+from app.geometry.spline.nurbs import NurbsSurface, evaluate_grid  # noqa: E402
+from app.records.codec import record_from_fit  # noqa: E402
 from benchmarks.corpus.cases import build_case, corpus_specs  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"

@@ -15,12 +15,12 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.fabric import Fabric  # noqa: E402
-from app.geometry.fit import FitOptions, fit_scan  # noqa: E402
-from app.geometry.garment import DesignInputs, design_stocking  # noqa: E402
-from app.geometry.pressure import pressure_map  # noqa: E402
-from app.geometry.record import record_from_fit  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
+from app.geometry.fit.pipeline import FitOptions, fit_scan  # noqa: E402
+from app.geometry.garment.design import DesignInputs, design_stocking  # noqa: E402
+from app.geometry.garment.fabric import Fabric  # noqa: E402
+from app.geometry.garment.pressure import pressure_map  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.records.codec import record_from_fit  # noqa: E402
 from app.services import charts  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"

@@ -32,11 +32,11 @@ from scipy.spatial import cKDTree  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.fit import FitOptions, fit_scan  # noqa: E402
-from app.geometry.nurbs import evaluate_grid  # noqa: E402
-from app.geometry.record import record_from_fit  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
-from app.geometry.surface_error import algorithm1_distances, dense_grid, newton_distances, refine_seeds  # noqa: E402
+from app.geometry.fit.pipeline import FitOptions, fit_scan  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.geometry.spline.distance import algorithm1_distances, dense_grid, newton_distances, refine_seeds  # noqa: E402
+from app.geometry.spline.nurbs import evaluate_grid  # noqa: E402
+from app.records.codec import record_from_fit  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"

@@ -27,8 +27,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.fit import FitOptions, fit_scan  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
+from app.geometry.fit.pipeline import FitOptions, fit_scan  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"

@@ -33,10 +33,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.geometry.errors import FitFailure  # noqa: E402
-from app.geometry.fit import FitOptions, check_scan, fit_scan  # noqa: E402
-from app.geometry.record import record_from_fit  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
-from app.geometry.volume import volume_between  # noqa: E402
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
+from app.geometry.measures.volume import volume_between  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.records.codec import record_from_fit  # noqa: E402
 from benchmarks.corpus.cases import CaseSpec, build_case  # noqa: E402
 from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
 

@@ -30,8 +30,8 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.fit import FitOptions, check_scan, fit_scan  # noqa: E402
-from app.geometry.scan_io import load_scan  # noqa: E402
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
+from app.geometry.scan.reader import load_scan  # noqa: E402
 from benchmarks.corpus.cases import build_case, corpus_specs  # noqa: E402
 from benchmarks.corpus.evaluate import run_case  # noqa: E402
 

@@ -34,8 +34,8 @@ _FITS: dict = {}
 
 def fitted(file: str, side: str | None, points: int = 15):
     """Fit a vendored leg once per session (the fits are deterministic)."""
-    from app.geometry.fit import FitOptions, fit_scan
-    from app.geometry.scan_io import load_scan
+    from app.geometry.fit.pipeline import FitOptions, fit_scan
+    from app.geometry.scan.reader import load_scan
 
     key = (file, side, points)
     if key not in _FITS:

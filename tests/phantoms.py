@@ -63,7 +63,7 @@ def revolution_truth(sigma_mm: float = 0.0) -> dict:
     """Landmark heights (z) and girths of :func:`calf_radius`, found numerically on a
     0.01 mm grid (girth = 2 pi r): B the ankle minimum, C the calf maximum, D the
     minimum above C, B1 the first height above B where the girth has risen half of the
-    way to C's (app.geometry.landmarks.b1_height)."""
+    way to C's (app.geometry.anatomy.landmarks.b1_height)."""
     z = np.arange(0.0, 450.0, 0.01)
     girth = 2.0 * np.pi * calf_radius(z)
     interior = (z > 40) & (z < 440)
@@ -83,7 +83,7 @@ PAPER_TUBE_HEIGHTS = np.array([0.0, 40.0, 80.0, 130.0, 180.0, 230.0, 280.0])
 def paper_tube(a: float, b: float, m: int = 72):
     """An elliptic tube as the paper's surface (7 layers x m points at
     :data:`PAPER_TUBE_HEIGHTS`), semi-axes a, b mm."""
-    from app.geometry.nurbs import surface_from_layers
+    from app.geometry.spline.nurbs import surface_from_layers
 
     t = np.arange(m) * 2 * np.pi / m
     layers = np.stack([np.stack([a * np.cos(t), b * np.sin(t), np.full(m, z)], axis=1) for z in PAPER_TUBE_HEIGHTS])

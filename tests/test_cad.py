@@ -10,10 +10,10 @@ import pytest
 
 from app import cad
 from app.cli import main as cli_main
-from app.geometry.fit import FitOptions, fit_scan
-from app.geometry.nurbs import evaluate_grid
-from app.geometry.record import record_from_fit
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, fit_scan
+from app.geometry.scan.reader import load_scan
+from app.geometry.spline.nurbs import evaluate_grid
+from app.records.codec import record_from_fit
 from tests.conftest import REAL, fitted
 
 TOLERANCE_MM = 1e-6

@@ -14,7 +14,7 @@ from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
 from app.api.schemas import JobOut
-from app.geometry.scan_io import SUPPORTED_FORMATS
+from app.geometry.scan import SUPPORTED_FORMATS
 from app.jobs.runner import EmbeddedRunner
 from app.services.fitting import parse_options
 from app.services.jobs import JobService

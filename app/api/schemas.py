@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from app.geometry.record import MAX_CONTROL_MM, MAX_NET
+from app.records.codec import MAX_CONTROL_MM, MAX_NET
 
 #: a control point's coordinate, mm (calf frame); a weight; a knot
 Coordinate = Annotated[float, Field(ge=-MAX_CONTROL_MM, le=MAX_CONTROL_MM)]
@@ -59,7 +59,7 @@ class Surface(BaseModel):
 
 
 class CalfRecordBody(BaseModel):
-    """A calf record (see app.geometry.record for every field)."""
+    """A calf record (see app.records.codec for every field)."""
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
     schema_version: Literal[1, 2] = Field(2, description="1 or 2; version 2 adds tape girths, warnings and side_inference")

@@ -126,7 +126,7 @@ class Job(Base):
 
 
 class Record(Base):
-    """A calf record (the JSON of app.geometry.record) with a few searchable columns."""
+    """A calf record (the JSON of app.records.codec) with a few searchable columns."""
 
     __tablename__ = "records"
 

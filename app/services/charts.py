@@ -11,10 +11,10 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from app.geometry.landmarks import LANDMARK_NAMES as LANDMARKS  # noqa: E402
-from app.geometry.pressure import PA_PER_MMHG, surface_rings  # noqa: E402
-from app.geometry.record import CalfRecord  # noqa: E402
-from app.geometry.standards import GRADIENT  # noqa: E402
+from app.geometry.anatomy.landmarks import LANDMARK_NAMES as LANDMARKS  # noqa: E402
+from app.geometry.garment.pressure import PA_PER_MMHG, surface_rings  # noqa: E402
+from app.geometry.garment.standards import GRADIENT  # noqa: E402
+from app.records.codec import CalfRecord  # noqa: E402
 
 CHARTS = ("profile", "pressure", "map")
 

@@ -1,6 +1,6 @@
 """Two records of one leg compared: the service behind GET /records/{a}/compare/{b}.
 
-The numbers come from :mod:`app.geometry.compare`; this layer fetches both records
+The numbers come from :mod:`app.geometry.measures.compare`; this layer fetches both records
 (the tenant's only), refuses two different legs, and renders the result as JSON, a
 GLB with vertex colours or CSV.
 """
@@ -13,8 +13,8 @@ import numpy as np
 import trimesh
 
 from app.errors import Unprocessable
-from app.geometry.compare import alignment_shift, compare_surfaces, shared_heights, signed_differences
-from app.geometry.exchange import apply_frame
+from app.geometry.measures.compare import alignment_shift, compare_surfaces, shared_heights, signed_differences
+from app.records.meshes import apply_frame
 from app.services.records import RecordService, _parse
 
 #: the colour map of the difference map runs from -MAP_RANGE_MM (blue, the leg has

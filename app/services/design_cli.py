@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.geometry.landmarks import LANDMARK_NAMES as LANDMARKS
-from app.geometry.record import CalfRecord
+from app.geometry.anatomy.landmarks import LANDMARK_NAMES as LANDMARKS
+from app.records.codec import CalfRecord
 from app.services.designs import compute_design, inputs_from_request
 
 

@@ -18,11 +18,11 @@ from app.db.models import Design
 from app.db.repositories import DesignRepository
 from app.errors import NotFound, from_fit_failure
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.exchange import apply_frame, surface_grid_faces
-from app.geometry.fabric import Fabric
-from app.geometry.garment import DesignInputs, design_stocking
-from app.geometry.pressure import PA_PER_MMHG, pressure_map
-from app.geometry.record import CalfRecord
+from app.geometry.garment.design import DesignInputs, design_stocking
+from app.geometry.garment.fabric import Fabric
+from app.geometry.garment.pressure import PA_PER_MMHG, pressure_map
+from app.records.codec import CalfRecord
+from app.records.meshes import apply_frame, surface_grid_faces
 from app.services.records import RecordService
 
 #: colour scale of pressure maps: 0 .. max(hot-spot limit, peak) mmHg

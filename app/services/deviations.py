@@ -5,7 +5,7 @@ The stored scan is read again, taken into the record's calf frame (the inverse o
 record's ``frame``), kept between the surface's end rings and within
 :data:`NEAR_MM` of the surface (a body scan's other leg, a floor, stray points are not
 this calf), thinned by a fixed stride (before and after), and each point's exact
-distance to the surface is computed (Newton foot points, :func:`app.geometry.surface_error.foot_points`).
+distance to the surface is computed (Newton foot points, :func:`app.geometry.spline.distance.foot_points`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import numpy as np
 from app.db.repositories import ScanRepository
 from app.errors import NotFound, Unprocessable
 from app.geometry.errors import FitFailure
-from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
-from app.geometry.surface_error import foot_points
-from app.geometry.volume import cut_height_range
+from app.geometry.measures.volume import cut_height_range
+from app.geometry.scan.reader import UNIT_SCALE_MM, load_scan
+from app.geometry.spline.distance import foot_points
 from app.services.records import RecordService, _parse
 
 NEAR_MM = 15.0

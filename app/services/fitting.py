@@ -14,10 +14,10 @@ import os
 import time
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fit import FitOptions, check_scan, fit_scan
-from app.geometry.lsq import LsqGrid
-from app.geometry.record import record_from_fit
-from app.geometry.scan_io import UNIT_SCALE_MM, load_scan
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.scan.reader import UNIT_SCALE_MM, load_scan
+from app.geometry.spline.lsq import LsqGrid
+from app.records.codec import record_from_fit
 
 #: the C library (malloc_trim here, prctl in app.jobs.runner), None where there is none
 _LIBC_NAME = ctypes.util.find_library("c")
@@ -118,7 +118,7 @@ def validate_scan_file(path: str, file_format: str, options: dict, max_points: i
 def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None, nice: int = 0) -> dict:
     """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}.
 
-    ``placement``: what the upload check found (see app.geometry.fit.check_scan); the
+    ``placement``: what the upload check found (see app.geometry.fit.pipeline.check_scan); the
     fit then skips locating the calf again.
     """
     set_priority(nice)

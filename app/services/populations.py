@@ -1,7 +1,7 @@
 """Populations of calves: POST /populations -> the average calf (stored as a record), the
 main modes of variation, girth percentiles at B, B1, C, D.
 
-The statistics are :mod:`app.geometry.population`'s, over lsq nets of one grid.  A
+The statistics are :mod:`app.geometry.measures.population`'s, over lsq nets of one grid.  A
 record that is not an lsq record on that grid is refitted on its stored scan (mode lsq,
 its side and units) by a fit job - the same jobs, runners, leases and retries as an
 upload's, not inside the request (a refit takes about a second; 200 of them would hold
@@ -21,12 +21,12 @@ import numpy as np
 from app.db.models import Job
 from app.db.repositories import JOB_FAILED, JOB_SUCCEEDED, JobRepository, ScanRepository
 from app.errors import Unprocessable, from_fit_failure
+from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
-from app.geometry.landmarks import LANDMARK_NAMES
-from app.geometry.lsq import LsqGrid, surface_from_net
-from app.geometry.measure import girths
-from app.geometry.population import as_right_leg, distinct_net, girth_percentiles, population_of
-from app.geometry.record import SCHEMA_VERSION, CalfRecord, parse_record
+from app.geometry.measures.surface_girths import girths
+from app.geometry.measures.population import as_right_leg, distinct_net, girth_percentiles, population_of
+from app.geometry.spline.lsq import LsqGrid, surface_from_net
+from app.records.codec import SCHEMA_VERSION, CalfRecord, parse_record
 from app.services.fitting import DEFAULT_GRID, parse_options
 from app.services.records import RecordService
 

@@ -14,11 +14,11 @@ from app.cad import CAD_MEDIA_TYPES, export_surface
 from app.db.models import Record
 from app.db.repositories import RecordRepository
 from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
+from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
-from app.geometry.exchange import export_mesh, surface_mesh
-from app.geometry.landmarks import LANDMARK_NAMES
-from app.geometry.measure import girths, surface_height_range
-from app.geometry.record import CalfRecord, parse_importable
+from app.geometry.measures.surface_girths import girths, surface_height_range
+from app.records.codec import CalfRecord, parse_importable
+from app.records.meshes import export_mesh, surface_mesh
 
 MESH_MEDIA_TYPES = {"stl": "model/stl", "glb": "model/gltf-binary", "gltf": "model/gltf+json"}
 #: the surface's formats: meshes (tessellated, scan coordinates) and the exact CAD ones

@@ -20,7 +20,7 @@ from python_multipart.exceptions import MultipartParseError
 from python_multipart.multipart import MultipartParser, MultipartState, parse_options_header
 
 from app.errors import BadRequest, EmptyBody, PayloadTooLarge, UnsupportedMediaType
-from app.geometry.scan_io import SUPPORTED_FORMATS
+from app.geometry.scan.reader import SUPPORTED_FORMATS
 from app.services.storage import ScanStore
 
 #: media types the service accepts, and the scan format each means

@@ -7,9 +7,9 @@ import time
 import numpy as np
 
 from app.geometry.errors import FitFailure
-from app.geometry.fit import FitOptions, check_scan, fit_scan
-from app.geometry.record import record_from_fit
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.scan.reader import load_scan
+from app.records.codec import record_from_fit
 from benchmarks.corpus.cases import Case
 
 LANDMARKS = ("B", "B1", "C", "D")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from app.cad import CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
-from app.geometry.nurbs import evaluate_grid
-from app.geometry.record import parse_record
+from app.geometry.spline.nurbs import evaluate_grid
+from app.records.codec import parse_record
 from tests.api.conftest import wait_for_job
 from tests.conftest import REAL
 

@@ -11,7 +11,7 @@ from fastapi.testclient import TestClient
 from scipy.spatial import cKDTree
 
 from app.db.migrate import upgrade_to_head
-from app.geometry.scan_io import load_scan
+from app.geometry.scan.reader import load_scan
 from app.main import create_app
 from app.openapi_export import TARGET as OPENAPI_FILE
 from tests.api.conftest import make_settings, wait_for_job

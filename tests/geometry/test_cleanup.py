@@ -3,9 +3,9 @@
 import numpy as np
 import trimesh
 
-from app.geometry import cleanup
-from app.geometry.fit import FitOptions, check_scan, fit_scan
-from app.geometry.scan_io import Scan
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.scan import cleanup as cleanup
+from app.geometry.scan.reader import Scan
 from tests.conftest import REAL
 
 
@@ -67,7 +67,7 @@ def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
     search: the same points, in the same pieces."""
     import json
 
-    from app.geometry.placement import LegPlacement, place_leg
+    from app.geometry.placement.place import LegPlacement, place_leg
 
     points, _ = _leg_on_platform(0.3)
     scan = Scan(points, None, "mm", False, "xyz")
@@ -85,7 +85,7 @@ def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
 def test_a_placement_stored_without_the_clean_up_still_replays():
     """Placements stored before the clean-up was kept in them (queued jobs across an
     upgrade) have no floors: the clean-up is searched for again, with the same leg."""
-    from app.geometry.placement import LegPlacement, place_leg, replace_leg
+    from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
 
     points, _ = _leg_on_platform(0.3)
     scan = Scan(points, None, "mm", False, "xyz")

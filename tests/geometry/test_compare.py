@@ -7,7 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from app.geometry.compare import compare_surfaces, signed_differences
+from app.geometry.measures.compare import compare_surfaces, signed_differences
 from tests.conftest import fitted
 
 

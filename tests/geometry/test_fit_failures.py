@@ -5,8 +5,8 @@ import pytest
 import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fit import FitOptions, fit_scan
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, fit_scan
+from app.geometry.scan.reader import load_scan
 from tests.conftest import REAL
 
 

@@ -5,8 +5,8 @@ import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from app.geometry.fit import FitOptions, fit_calf, fit_scan
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, fit_calf, fit_scan
+from app.geometry.scan.reader import load_scan
 from tests.conftest import REAL
 from tests.phantoms import revolution_leg, revolution_truth, tube_mesh
 
@@ -34,7 +34,7 @@ def test_elliptic_cylinder_55_40_error_below_0_05_percent():
     a, b = 55.0, 40.0
     h = ((a - b) / (a + b)) ** 2
     perimeter = np.pi * (a + b) * (1 + 3 * h / (10 + np.sqrt(4 - 3 * h)))
-    from app.geometry.nurbs import evaluate_grid
+    from app.geometry.spline.nurbs import evaluate_grid
 
     ring = evaluate_grid(result.surface, np.linspace(0, 1, 2001), np.array([0.5]))[:, 0]
     assert np.hypot(*np.diff(ring[:, :2], axis=0).T).sum() == pytest.approx(perimeter, abs=0.1)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.geometry.fit import fit_scan
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import fit_scan
+from app.geometry.scan.reader import load_scan
 from tests.conftest import FRONT_AXIS, REAL, REAL_LEGS, UP_AXIS, fitted
 
 #: reference tape girths (mm) and heights above B (mm) from the data README
@@ -140,7 +140,7 @@ def test_the_vertices_of_a_body_scan_as_a_sparse_cloud_fit(n_points):
     near the mesh's, and the record says the cloud was sparse."""
     import trimesh
 
-    from app.geometry.fit import FitOptions, fit_scan
+    from app.geometry.fit.pipeline import FitOptions, fit_scan
 
     scan = load_scan(REAL / "vh_male_skin.glb")
     whole = fit_scan(scan, FitOptions(side="right")).landmarks.as_dict()
@@ -162,7 +162,7 @@ def test_a_cloud_too_sparse_to_close_its_sections_says_so(n_points, where):
     import trimesh
 
     from app.geometry.errors import FitFailure
-    from app.geometry.fit import FitOptions, fit_scan
+    from app.geometry.fit.pipeline import FitOptions, fit_scan
 
     scan = load_scan(REAL / "vh_male_skin.glb")
     rng = np.random.default_rng(0)
@@ -180,7 +180,7 @@ def test_a_cloud_of_7k_body_vertices_fits_near_the_mesh():
     fitted with its B and C tape girths within 5 mm of the mesh's, and said sparse."""
     import trimesh
 
-    from app.geometry.fit import FitOptions, fit_scan
+    from app.geometry.fit.pipeline import FitOptions, fit_scan
 
     scan = load_scan(REAL / "vh_male_skin.glb")
     whole = fit_scan(scan, FitOptions(side="right")).landmarks.tape_girths_mm

@@ -1,13 +1,13 @@
-"""Stocking designs (app.geometry.garment): targets met, graded, refused with a reason."""
+"""Stocking designs (app.geometry.garment.design): targets met, graded, refused with a reason."""
 
 import numpy as np
 import pytest
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fabric import Fabric
-from app.geometry.garment import DesignInputs, design_stocking
-from app.geometry.pressure import PA_PER_MMHG
-from app.geometry.standards import normalize_class
+from app.geometry.garment.design import DesignInputs, design_stocking
+from app.geometry.garment.fabric import Fabric
+from app.geometry.garment.pressure import PA_PER_MMHG
+from app.geometry.garment.standards import normalize_class
 from tests.conftest import fitted
 from tests.phantoms import paper_tube as tube
 

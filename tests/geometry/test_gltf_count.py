@@ -1,4 +1,4 @@
-"""Counting a glTF scene's instances before it is expanded (app.geometry.gltf_count)."""
+"""Counting a glTF scene's instances before it is expanded (app.geometry.scan.gltf_count)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 import trimesh
 
 from app.geometry.errors import FitFailure
-from app.geometry.gltf_count import gltf_json, gltf_scene_size
-from app.geometry.scan_io import load_scan
+from app.geometry.scan.gltf_count import gltf_json, gltf_scene_size
+from app.geometry.scan.reader import load_scan
 from benchmarks.hostile_inputs import LEG_STL, instanced_glb
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.geometry.knee_bend import keep_index, shank_runs
+from app.geometry.placement.knee_bend import keep_index, shank_runs
 
 
 def _bent_limbs(flexion_deg: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

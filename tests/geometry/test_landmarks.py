@@ -4,7 +4,7 @@ minimum?  Synthetic girth profiles (mm) of a smooth waist cut near its minimum."
 import numpy as np
 import pytest
 
-from app.geometry.landmarks import (
+from app.geometry.anatomy.landmarks import (
     CROWN_FRACTION,
     EDGE_REACH_MM,
     HIGH_CONFIDENCE_MM,

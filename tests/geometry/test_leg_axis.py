@@ -1,9 +1,9 @@
-"""One leg's calf axis and landmarks (app.geometry.leg_axis) on legs whose axis is known."""
+"""One leg's calf axis and landmarks (app.geometry.placement.leg_axis) on legs whose axis is known."""
 
 import numpy as np
 import trimesh
 
-from app.geometry.leg_axis import clip_to_half_spaces, place_candidate
+from app.geometry.placement.leg_axis import clip_to_half_spaces, place_candidate
 from tests.phantoms import revolution_leg, revolution_truth
 
 

@@ -1,4 +1,4 @@
-"""The unit check after placement (app.geometry.leg_size): a leg in inches is not fitted
+"""The unit check after placement (app.geometry.placement.leg_size): a leg in inches is not fitted
 as one in centimetres."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import trimesh
 from scipy.spatial import ConvexHull
 
 from app.geometry.errors import FitFailure
-from app.geometry.fit import FitOptions, check_scan
-from app.geometry.leg_size import MAX_CALF_GIRTH_MM, MIN_CALF_GIRTH_MM, likeliest_unit
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, check_scan
+from app.geometry.placement.leg_size import MAX_CALF_GIRTH_MM, MIN_CALF_GIRTH_MM, likeliest_unit
+from app.geometry.scan.reader import load_scan
 from benchmarks.corpus.degrade import crop
 from benchmarks.hostile_inputs import leg_in_inches
 from tests.conftest import REAL

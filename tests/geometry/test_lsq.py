@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.geometry import lsq
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fit import FitOptions, fit_scan
-from app.geometry.nurbs import evaluate_derivatives, evaluate_grid
-from app.geometry.record import parse_record, record_from_fit
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, fit_scan
+from app.geometry.scan.reader import load_scan
 from app.geometry.sections import slice_mesh_polar
+from app.geometry.spline import lsq as lsq
+from app.geometry.spline.nurbs import evaluate_derivatives, evaluate_grid
+from app.records.codec import parse_record, record_from_fit
 from tests.conftest import REAL, fitted
 
 
@@ -107,9 +107,9 @@ def test_lsq_ends_lie_in_the_planes_of_b_and_d_and_read_the_scans_girths(file, s
     the surface's tape girths in the planes of B, B1, C, D are the scan's within 2 mm
     (they were 15-62 mm short at D with free borders), it stands on the skin (surface
     -> scan p99 under 3 mm), and a class II design works on it with no heights given."""
-    from app.geometry.fabric import Fabric
-    from app.geometry.garment import DesignInputs, design_stocking
-    from app.geometry.measure import girths
+    from app.geometry.garment.design import DesignInputs, design_stocking
+    from app.geometry.garment.fabric import Fabric
+    from app.geometry.measures.surface_girths import girths
 
     scan, _ = fitted(file, side)
     result = fit_scan(scan, FitOptions(side=side, mode="lsq", grid=grid))

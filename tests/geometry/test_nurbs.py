@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
-from app.geometry.nurbs import (
+from app.geometry.spline.nurbs import (
     NurbsSurface,
     basis_matrix,
     chord_length_parameters,

@@ -1,4 +1,4 @@
-"""Placing a leg (app.geometry.placement): a side given against the evidence is kept
+"""Placing a leg (app.geometry.placement.place): a side given against the evidence is kept
 and said."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.geometry.fit import FitOptions, check_scan, fit_scan
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.scan.reader import load_scan
 from benchmarks.corpus.degrade import coarsen, crop
 from tests.conftest import REAL
 

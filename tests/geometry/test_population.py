@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.geometry.fit import FitOptions, fit_scan
-from app.geometry.lsq import LsqGrid, surface_from_net
-from app.geometry.nurbs import evaluate_grid
-from app.geometry.population import as_right_leg, distinct_net, girth_percentiles, population_of
-from app.geometry.scan_io import load_scan
+from app.geometry.fit.pipeline import FitOptions, fit_scan
+from app.geometry.measures.population import as_right_leg, distinct_net, girth_percentiles, population_of
+from app.geometry.scan.reader import load_scan
+from app.geometry.spline.lsq import LsqGrid, surface_from_net
+from app.geometry.spline.nurbs import evaluate_grid
 from tests.conftest import REAL
 
 

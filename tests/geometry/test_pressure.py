@@ -1,18 +1,18 @@
-"""Laplace-law pressure on NURBS rings (app.geometry.pressure) checked against numbers
+"""Laplace-law pressure on NURBS rings (app.geometry.garment.pressure) checked against numbers
 worked by hand: a cylinder (T / r, Thomas's formula), an ellipse (the curvature ratio,
 Ramanujan's perimeter), a groove the fabric bridges, hot-spot regions across the seam."""
 
 import numpy as np
 import pytest
 
-from app.geometry.nurbs import surface_from_layers
-from app.geometry.pressure import (
+from app.geometry.garment.pressure import (
     PA_PER_MMHG,
     find_hot_spots,
     local_pressure_pa,
     mean_pressure_pa,
     surface_rings,
 )
+from app.geometry.spline.nurbs import surface_from_layers
 from tests.phantoms import PAPER_TUBE_HEIGHTS as HEIGHTS
 from tests.phantoms import paper_tube as tube
 

@@ -9,9 +9,9 @@ import trimesh
 from scipy.spatial import cKDTree
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.exchange import export_mesh, surface_mesh
-from app.geometry.nurbs import evaluate_grid
-from app.geometry.record import CalfRecord, record_from_fit
+from app.geometry.spline.nurbs import evaluate_grid
+from app.records.codec import CalfRecord, record_from_fit
+from app.records.meshes import export_mesh, surface_mesh
 from tests.conftest import fitted
 
 

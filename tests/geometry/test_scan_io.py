@@ -6,7 +6,7 @@ import pytest
 import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.scan_io import detect_units, load_scan, merge_duplicate_vertices
+from app.geometry.scan.reader import detect_units, load_scan, merge_duplicate_vertices
 from tests.conftest import REAL
 
 

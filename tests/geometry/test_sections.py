@@ -2,8 +2,8 @@
 
 import numpy as np
 
-from app.geometry.point_sections import slice_points_polar
 from app.geometry.sections import polygon_perimeter, ray_angles, slice_mesh_polar
+from app.geometry.sections.cloud import slice_points_polar
 from tests.phantoms import cylinder
 
 

@@ -1,12 +1,12 @@
-"""The surface -> scan distance (app.geometry.skin_distance): the other side of E."""
+"""The surface -> scan distance (app.geometry.spline.skin_distance): the other side of E."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from app.geometry.lsq import surface_from_net
-from app.geometry.skin_distance import OFF_SKIN_MM, surface_to_scan
+from app.geometry.spline.lsq import surface_from_net
+from app.geometry.spline.skin_distance import OFF_SKIN_MM, surface_to_scan
 from tests.phantoms import cylinder
 
 

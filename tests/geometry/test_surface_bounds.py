@@ -1,4 +1,4 @@
-"""The cost bounds and the tube checks of imported surfaces (app.geometry.surface_bounds),
+"""The cost bounds and the tube checks of imported surfaces (app.geometry.spline.bounds),
 and the bounded memory of the evaluations behind them."""
 
 from __future__ import annotations
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from app.geometry.errors import FitFailure
-from app.geometry.measure import ROWS_PER_CHUNK, girths
-from app.geometry.record import parse_importable, parse_record, record_from_fit
-from app.geometry.surface_bounds import MAX_PATCH_COST, patch_cost
-from app.geometry.volume import volume_between
+from app.geometry.measures.surface_girths import ROWS_PER_CHUNK, girths
+from app.geometry.measures.volume import volume_between
+from app.geometry.spline.bounds import MAX_PATCH_COST, patch_cost
+from app.records.codec import parse_importable, parse_record, record_from_fit
 from benchmarks.hostile_inputs import tube_record
 from tests.conftest import fitted
 
@@ -71,7 +71,7 @@ def test_chunked_girths_cross_chunk_borders_exactly(monkeypatch):
     border = np.linspace(0.0, 1000.0, 2001)[ROWS_PER_CHUNK]  # z of the first chunk border row
     heights = np.array([border, border + 0.01, 333.3, 950.0])
     chunked = girths(surface, heights)
-    monkeypatch.setattr("app.geometry.measure.ROWS_PER_CHUNK", 10_000)
+    monkeypatch.setattr("app.geometry.measures.surface_girths.ROWS_PER_CHUNK", 10_000)
     whole = girths(surface, heights)
     for a, b in zip(chunked, whole):
         assert a.tape_mm == pytest.approx(b.tape_mm, abs=1e-9)
@@ -81,6 +81,6 @@ def test_chunked_girths_cross_chunk_borders_exactly(monkeypatch):
 def test_the_volume_is_summed_over_chunks_like_in_one_piece(monkeypatch):
     surface = parse_record(tube_record(72, 40, 3, height_mm=1000.0)).surface
     chunked = volume_between(surface, 100.0, 900.0)
-    monkeypatch.setattr("app.geometry.volume.QUADRATURE_CHUNK_POINTS", 10 ** 9)
-    monkeypatch.setattr("app.geometry.nurbs.EVALUATION_CHUNK_BYTES", 10 ** 12)
+    monkeypatch.setattr("app.geometry.measures.volume.QUADRATURE_CHUNK_POINTS", 10 ** 9)
+    monkeypatch.setattr("app.geometry.spline.nurbs.EVALUATION_CHUNK_BYTES", 10 ** 12)
     assert chunked == pytest.approx(volume_between(surface, 100.0, 900.0), rel=1e-12)

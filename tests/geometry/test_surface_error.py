@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from app.geometry import surface_error as se
-from app.geometry.nurbs import NurbsSurface
+from app.geometry.spline import distance as se
+from app.geometry.spline.nurbs import NurbsSurface
 
 
 def _brute_triangle_distance(p, a, b, c, n=400):

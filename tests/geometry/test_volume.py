@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.geometry.nurbs import NurbsSurface
-from app.geometry.volume import volume_between
+from app.geometry.measures.volume import volume_between
+from app.geometry.spline.nurbs import NurbsSurface
 from tests.conftest import fitted
 
 

@@ -1,0 +1,385 @@
+"""The paper's pipeline end to end: scan -> calf frame -> sections -> landmarks ->
+feature points -> NURBS surface -> error index (sections 2.1-2.6).
+
+:func:`fit_scan` returns a :class:`FitResult` or raises :class:`FitFailure` with the
+reason.  Everything is in millimetres; the calf frame is described in
+:mod:`app.geometry.placement.calf_frame`.  Finding the leg and placing the calf frame (clean-up,
+several legs, bent knees, landmarks at the scan's edge, the side) is
+:mod:`app.geometry.placement.place`; this module is the pipeline after it:
+:func:`fit_calf` - 200 sections x 72 rays (2.1), the profile, B1 and the tape girths
+(2.2), feature points and k-means (2.3), the surface (2.4-2.5) and the error index (2.6).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
+from app.geometry.anatomy.landmarks import (
+    LANDMARK_NAMES,
+    Landmark,
+    Landmarks,
+    b1_height,
+    height_tolerances,
+    layer_heights,
+)
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
+from app.geometry.scan.reader import Scan
+from app.geometry.sections import PolarSections, slice_polar, tape_girths
+from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
+from app.geometry.spline.distance import SurfaceError, error_statistics
+from app.geometry.spline.lsq import LsqFit, LsqGrid, fit_lsq_surface
+from app.geometry.spline.nurbs import NurbsSurface, surface_from_layers
+from app.geometry.spline.skin_distance import OFF_SKIN_MM, SkinDistance, surface_to_scan
+
+#: the error index of a point cloud is computed on at most this many of its calf points
+#: (a fixed stride along the leg, rounded up).  E is an RMS: from n points its relative
+#: standard error is sqrt(kappa - 1) / (2 sqrt(n)), kappa = mean(e^4) / mean(e^2)^2 of
+#: e = l / r_k (3 for normal residuals; 4-13 measured on corpus clouds without stray
+#: points), so 20k points give E to 0.6-1.2% (measured against all points: within 1.5%);
+#: the calf of a 100k-face mesh has about as many vertices.  With 2% stray points kappa
+#: is in the hundreds: E is then the strays' and known to ~5% only
+MAX_ERROR_POINTS = 20_000
+
+SURFACE_MODES = ("paper", "paper_stacked", "lsq")
+#: an lsq net with fewer scan points per control point than this is warned about: a
+#: least-squares fit averages noise over the points of each control point's support
+#: (16 basis functions overlap a point in a bicubic net, so each control point sees
+#: about 16 times its share); below ~10 per control point the sections and the
+#: smoothing, not the scan, set the surface (a registered body mesh's calf: ~140 points
+#: for a 12 x 24 net's 288)
+MIN_POINTS_PER_CONTROL = 10
+#: a mesh's triangles are skin between its vertices (the sections sample them exactly),
+#: so a mesh is warned about only with fewer vertices than control points: its
+#: triangles are then larger than the net's patches
+MIN_VERTICES_PER_CONTROL = 1
+#: a cloud whose sections cannot be closed (fewer than 90% of them, after bridging the
+#: open ones from their neighbours) and whose slabs hold a point in fewer than this share
+#: of the 5-degree sectors around the leg (median) is too sparse rather than not a leg;
+#: refused as too_sparse with the density found and needed (MIN_CLOUD_POINTS_PER_MM)
+MIN_SECTOR_COVERAGE = 0.6
+#: below this density (the slabs are then thicker than 8 mm), a cloud's girths are
+#: warned about: a thick slab at the ankle minimum reads the wider leg above and below
+SPARSE_CLOUD_POINTS_PER_MM = 18.0
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Options of a fit.
+
+    side : "left" | "right" | None  - which leg of a body; recorded for a leg scan.
+    points_per_layer : m, the shared feature angles per layer (paper: 8 or 15).
+    n_sections : resampled sections between B and D (paper: 200).
+    section_spacing_mm : if given, sections every this many mm instead (e.g. 1.0).
+    n_angles : rays per section (paper: 72, i.e. 5 degrees).
+    mode : "paper" (7 x m interpolation), "paper_stacked", or "lsq" (least squares on
+        all the calf's points, :mod:`app.geometry.spline.lsq`).
+    grid : the lsq control net, "ALONGxAROUND" (default 7x15, the paper's 105 points).
+    """
+
+    side: str | None = None
+    points_per_layer: int = 15
+    n_sections: int = 200
+    section_spacing_mm: float | None = None
+    n_angles: int = 72
+    mode: str = "paper"
+    grid: str = "7x15"
+
+    def validate(self) -> None:
+        if self.side not in (None, "left", "right"):
+            raise FitFailure(FailureReason.INVALID_OPTION, f"side must be left or right, not {self.side!r}")
+        if not 4 <= self.points_per_layer <= 36:
+            raise FitFailure(FailureReason.INVALID_OPTION, "points per layer must be between 4 and 36 (paper: 8 or 15)")
+        if not 20 <= self.n_sections <= 2000:
+            raise FitFailure(FailureReason.INVALID_OPTION, "sections must be between 20 and 2000")
+        if self.section_spacing_mm is not None and not 0.2 <= self.section_spacing_mm <= 20:
+            raise FitFailure(FailureReason.INVALID_OPTION, "section spacing must be 0.2-20 mm")
+        if self.mode not in SURFACE_MODES:
+            raise FitFailure(FailureReason.INVALID_OPTION, f"mode must be one of {', '.join(SURFACE_MODES)}")
+        if self.mode == "lsq":
+            LsqGrid.parse(self.grid)
+        if self.n_angles not in (36, 72, 144, 360):
+            raise FitFailure(FailureReason.INVALID_OPTION, "angles per section must be 36, 72, 144 or 360")
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """Everything the pipeline produced (calf-frame mm unless stated)."""
+
+    surface: NurbsSurface
+    frame: cf.CalfFrame
+    landmarks: Landmarks
+    sections: PolarSections  # the resampled sections between B and D
+    layer_sections: PolarSections  # the 7 feature layers
+    layer_points: np.ndarray  # (7, m, 3) the data grid
+    feature_angles_rad: np.ndarray  # (m,)
+    error: SurfaceError
+    side: str | None
+    n_scan_points: int
+    options: FitOptions
+    timings: dict = field(default_factory=dict)
+    placement: LegPlacement | None = None
+    lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
+    sole_mm: float | None = None  # calf-frame z of the sole (the leg's lowest point) when the foot is in the scan
+    skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
+    fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
+
+    @property
+    def warnings(self) -> list[str]:
+        return (list(self.placement.warnings) if self.placement is not None else []) + list(self.fit_warnings)
+
+
+def _too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
+    """The refusal of a cloud too sparse to close ``what`` (module constants above)."""
+    return FitFailure(
+        FailureReason.TOO_SPARSE,
+        f"the cloud is too sparse to close {what}: it has {density:.1f} points per mm of the calf's height and its "
+        f"slabs (up to 20 mm thick) hold points in {covered:.0%} of the 5-degree sectors around the leg (median), so "
+        f"{closed:.0%} of the sections could be closed (90% are needed); a cloud needs about "
+        f"{MIN_CLOUD_POINTS_PER_MM:g} point per mm of the leg's height, {MIN_CLOUD_POINTS_PER_MM * 20:.0f} in each "
+        "slab, spread round the leg: export the scan denser, or as a mesh")
+
+
+#: a cloud's calf section or feature layer whose own slab cannot be closed is
+#: interpolated from the closed calf sections at most this far above and below it, mm:
+#: the reach of a sparse cloud's slab (app.geometry.sections.cloud.MAX_HALF_MM), over
+#: which a leg's section changes smoothly (girth slope at most ~1 mm per mm)
+LAYER_BRIDGE_MM = 10.0
+
+
+def bridge_sections(layers: PolarSections, sections: PolarSections) -> PolarSections:
+    """``layers`` with each missing row linearly interpolated (centroid and radii on the
+    shared rays) between the nearest closed rows of ``sections`` below and above it,
+    when both lie within :data:`LAYER_BRIDGE_MM`; other rows as they are.  Both (k, a)
+    on the same ``a`` rays, heights in mm (``layers`` may be ``sections`` itself)."""
+    radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
+    closed = np.flatnonzero(sections.valid)
+    z = sections.heights_mm[closed]
+    for row in np.flatnonzero(~layers.valid):  # the few open rows
+        h = layers.heights_mm[row]
+        below, above = closed[z <= h], closed[z >= h]
+        if not below.size or not above.size:
+            continue
+        lo, hi = below[-1], above[0]
+        z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
+        if h - z_lo > LAYER_BRIDGE_MM or z_hi - h > LAYER_BRIDGE_MM:
+            continue
+        t = 0.0 if z_hi == z_lo else (h - z_lo) / (z_hi - z_lo)
+        radii[row] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
+        centres[row] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
+    return dataclasses.replace(layers, radii_mm=radii, centroids_mm=centres)
+
+
+def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
+    if options.section_spacing_mm:
+        return np.arange(b, d + 1e-9, options.section_spacing_mm)
+    return np.linspace(b, d, options.n_sections)
+
+
+def fit_scan(scan: Scan, options: FitOptions | None = None, placement: dict | None = None) -> FitResult:
+    """Fit the paper's NURBS calf model to a scan (see module docstring).
+
+    ``placement`` (from :func:`check_scan` on the same scan and options) skips the search
+    for the leg, its axis and its landmarks; the result is the same.
+    """
+    options = options or FitOptions()
+    options.validate()
+    started = time.perf_counter()
+    if placement:
+        leg = replace_leg(scan, LegPlacement.from_dict(placement))
+    else:
+        leg = place_leg(scan, options.side)
+    placed = time.perf_counter()
+    where = leg.placement
+    local = where.frame.to_calf(leg.points)
+    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, frame=where.frame, side=where.side,
+                      n_scan_points=len(scan.points_mm), d_at_window_edge=where.d_at_window_edge,
+                      edges=(where.b_at_scan_edge, where.d_at_scan_edge), placement=where)
+    result.timings["calf_frame"] = placed - started
+    if where.anterior_cue == "foot":
+        # the foot is in the scan (it told front from back): the lowest point of the heel
+        # (behind and below B's centroid) is the sole, the floor a standing person's
+        # heights are measured from (ISO 8559-1); the heel, not the whole foot: a lying
+        # body's pointed toes reach lower
+        heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]
+        if heel.size:
+            result = dataclasses.replace(result, sole_mm=float(heel.min()))
+    return result
+
+
+def fit_calf(
+    local: np.ndarray,
+    faces: np.ndarray | None,
+    c_mm: float,
+    d_mm: float,
+    options: FitOptions | None = None,
+    *,
+    frame: cf.CalfFrame | None = None,
+    side: str | None = None,
+    n_scan_points: int | None = None,
+    d_at_window_edge: bool = False,
+    edges: tuple[bool, bool] = (False, False),
+    placement: LegPlacement | None = None,
+) -> FitResult:
+    """Sections 2.1-2.6 on a scan already in the calf frame, B at z = 0.
+
+    local (n, 3) calf-frame mm; faces (f, 3) or None; ``c_mm`` and ``d_mm`` the calf
+    maximum and the minimum below the knee (B1 is found here, from the resampled
+    profile).  ``frame`` defaults to the identity placement.
+    """
+    options = options or FitOptions()
+    options.validate()
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+
+    if frame is None:
+        frame = cf.CalfFrame(np.eye(3), np.zeros(3), 1.0, "given")
+    b_mm = 0.0
+    if faces is not None:  # only the triangles reaching the calf
+        fz = local[:, 2][faces]
+        faces = faces[(fz.max(axis=1) >= b_mm - 2.0) & (fz.min(axis=1) <= d_mm + 2.0)]
+    else:  # a cloud is sliced three times below: sorted along z once, each sort is then a pass
+        local = local[np.argsort(local[:, 2], kind="stable")]
+    heights = _section_heights(b_mm, d_mm, options)
+    sections = slice_polar(local, faces, heights, options.n_angles)
+    valid = sections.valid
+    in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
+    density = None if faces is not None else len(in_calf) / max(d_mm - b_mm, 1e-9)  # a cloud's points per mm
+    covered = float(np.median(sections.coverage))
+    sparse = density is not None and covered < MIN_SECTOR_COVERAGE
+    if density is not None and valid.mean() < 0.9:  # a sparse cloud's open slabs, from their neighbours
+        sections = bridge_sections(sections, sections)
+        valid = sections.valid
+    if valid.mean() < 0.9:
+        if sparse and density is not None:
+            raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
+        raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
+    lap("resample")
+
+    girth = sections.circumferences()
+    b1_mm = b1_height(heights, girth, b_mm, c_mm)
+    layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
+    layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
+    if sparse and not layer_sections.valid.all():
+        layer_sections = bridge_sections(layer_sections, sections)
+    if not layer_sections.valid.all():
+        if sparse and density is not None:
+            raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
+        raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
+    layer_girth = layer_sections.circumferences()
+    tape = tape_girths(local, faces, layers_z[[0, 2, 4, 6]])
+    if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
+        fallback = layer_sections.tape_perimeters()[[0, 2, 4, 6]]
+        tape = np.where(np.isfinite(tape), tape, fallback)
+    landmarks = Landmarks(
+        B=Landmark(float(layers_z[0]), float(layer_girth[0])),
+        B1=Landmark(float(layers_z[2]), float(layer_girth[2])),
+        C=Landmark(float(layers_z[4]), float(layer_girth[4])),
+        D=Landmark(float(layers_z[6]), float(layer_girth[6])),
+        layer_heights_mm=layers_z,
+        d_at_window_edge=d_at_window_edge,
+        b_at_scan_edge=edges[0],
+        d_at_scan_edge=edges[1],
+        tape_girths_mm={name: float(g) for name, g in zip(("B", "B1", "C", "D"), tape)},
+        tolerances_mm=height_tolerances(heights, girth, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]]))),
+    )
+    lap("landmarks")
+
+    m = options.points_per_layer
+    angles = shared_angles(candidate_angles(layer_sections.radii_mm, layer_sections.angles_rad, m), m)
+    radii = radii_at(layer_sections.radii_mm, layer_sections.angles_rad, angles)
+    centres = layer_sections.centroids_mm
+    layer_points = np.stack(
+        [
+            centres[:, 0, None] + radii * np.cos(angles),
+            centres[:, 1, None] + radii * np.sin(angles),
+            np.broadcast_to(layers_z[:, None], radii.shape),
+        ],
+        axis=-1,
+    )
+    lap("feature_points")
+
+    if faces is None:
+        in_calf = in_calf[:: -(-len(in_calf) // MAX_ERROR_POINTS)]
+    lsq_fit = None
+    if options.mode == "lsq":
+        lsq_fit = fit_lsq_surface(sections, layers_z, local[in_calf], LsqGrid.parse(options.grid))
+        surface = lsq_fit.surface
+    else:
+        try:
+            surface = surface_from_layers(layer_points, mode=options.mode)
+        except (ValueError, np.linalg.LinAlgError) as exc:
+            raise FitFailure(
+                FailureReason.DEGENERATE_SURFACE,
+                "the feature points cannot be interpolated (two of them coincide or a layer folds over itself)",
+            ) from exc
+    lap("nurbs")
+
+    error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
+    skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
+    fit_warnings = []
+    if density is not None and density < SPARSE_CLOUD_POINTS_PER_MM:
+        fit_warnings.append(
+            f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
+            "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
+    for name in LANDMARK_NAMES:
+        tolerance = (landmarks.tolerances_mm or {}).get(name, 0.0)
+        if not landmarks.at_edge(name) and landmarks.confidence(name) == "low":
+            fit_warnings.append(
+                f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "
+                f"of {name}'s over that length, so {name}'s girth is sure but its height (and the lengths and layers "
+                "measured from it) is not")
+    if skin.off_skin:
+        fit_warnings.append(
+            f"the surface stands up to {skin.max_mm:.1f} mm off the scan's skin: {skin.worst_ring_share:.0%} of its ring "
+            f"at {skin.worst_ring_height_mm:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off, so its girths there are "
+            "not the scan's" + (" (try mode=paper or a finer grid)" if options.mode == "lsq" else ""))
+    if lsq_fit is not None:
+        per_control = len(in_calf) / (lsq_fit.grid.around * lsq_fit.grid.along)
+        needed = MIN_POINTS_PER_CONTROL if faces is None else MIN_VERTICES_PER_CONTROL
+        if per_control < needed:
+            what = "scan points" if faces is None else "mesh vertices"
+            fit_warnings.append(
+                f"the lsq net has {per_control:.1f} {what} per control point (fewer than {needed}): the surface is set "
+                "by the resampled sections and the smoothing more than by the scan; use a coarser grid or a denser scan")
+    lap("error")
+    return FitResult(
+        surface=surface,
+        frame=frame,
+        landmarks=landmarks,
+        sections=sections,
+        layer_sections=layer_sections,
+        layer_points=layer_points,
+        feature_angles_rad=angles,
+        error=error,
+        side=side,
+        n_scan_points=int(n_scan_points if n_scan_points is not None else len(local)),
+        options=options,
+        timings=timings,
+        placement=placement,
+        lsq=lsq_fit,
+        skin=skin,
+        fit_warnings=tuple(fit_warnings),
+    )
+
+
+def check_scan(scan: Scan, options: FitOptions | None = None) -> dict:
+    """Quick acceptance test of a scan: the options are valid and the calf can be placed
+    (the leg found, B, C and D present).  Raises FitFailure with the reason otherwise;
+    returns the placement (:meth:`LegPlacement.to_dict`), which :func:`fit_scan` can reuse.
+    Costs the calf-frame stage of a fit."""
+    options = options or FitOptions()
+    options.validate()
+    return place_leg(scan, options.side).placement.to_dict()

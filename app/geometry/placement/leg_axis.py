@@ -1,0 +1,424 @@
+"""One candidate leg's calf axis, landmarks and anterior direction (paper section 2.1).
+
+:func:`place_candidate` takes the points (and faces) of one leg - already cut out of its
+scan by :mod:`app.geometry.placement.place` - and returns a :class:`CalfAxis`, in scan mm:
+
+1. a first axis: area-weighted PCA of the leg's surface, then the line through the
+   centroids of its compact (round, leg-like) slabs, which a flat foot does not drag
+   (:func:`_first_axis`);
+2. the coarse circumference profile along it (:func:`_profile`: 36 rays every 3 mm),
+   B, C, D found on it (:func:`app.geometry.anatomy.landmarks.find_feature_heights`), both ends
+   tried when the scan's up is unknown (:func:`_either_way`);
+3. the shank's long axis - the line through the section centroids from B to 85% of the
+   way to D (:func:`_section_centre_line`) - adopted and the landmarks found again along
+   it (:func:`_refine`);
+4. for a bent knee, when the straight reading fails: the straight runs of the leg's
+   centre line, each cut free of the thigh at the knee (:mod:`app.geometry.placement.knee_bend`);
+5. anterior from the foot, else opposite the calf bulge; the origin at B's centroid.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, failure_stage, find_feature_heights
+from app.geometry.errors import FailureReason, FitFailure, FootFound
+from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.knee_bend import keep_index, shank_runs
+from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
+
+#: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
+#: is longer than it is wide; a ball or a box is not
+MIN_ASPECT = 1.2
+#: slabs of the surface whose spread is rounder than this (major/minor axis) are leg-like;
+#: a 55 x 40 mm ellipse is 1.4, a footprint 2.5 or more
+COMPACT_RATIO = 1.6
+SLAB_MM = 5.0
+PCA_SAMPLES = 30_000
+CENTROID_LINE_ITERATIONS = 4
+#: spacing of the coarse profile used to find B, C, D along the whole leg, mm
+COARSE_SPACING_MM = 2.0
+#: spacing of the first profile over the whole scan (before the calf is known), mm
+FIRST_SPACING_MM = 3.0
+#: the calf axis is re-estimated by PCA until it moves less than this, degrees
+AXIS_TOLERANCE_DEG = 0.5
+MAX_AXIS_ITERATIONS = 2
+#: an axis update smaller than this (degrees) keeps the landmarks without re-slicing: a
+#: 2 degree tilt moves a plane by +-1.7 mm across a 50 mm radius and its girth by 0.06%
+REDETECT_DEG = 2.0
+#: sections at the scan's ends seen over less than this share of their rays (meshes) or
+#: angular bins (clouds) are partial cuts, not leg sections
+MIN_END_COVERAGE = 0.9
+#: an oblique crop (up to ~15 degrees across a 70 mm leg) spans this much of the axis, mm
+END_CUT_MM = 25.0
+#: a leg's girth rises at most ~1%/mm anywhere above the ankle (about 0.5%/mm at the
+#: knee): a rise of 10% within 5 mm means the plane has reached another body part (a
+#: bent knee's thigh); the corpus truth ends the shank's sections by the same rule
+MERGE_RISE = 0.10
+MERGE_RUN_MM = 5.0
+#: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
+COARSE_ANGLES = 36
+#: the shank's long axis is the line through the section centroids from B to this share
+#: of the way to D (:func:`_section_centre_line`).  On 20 generated legs the line of the
+#: sections from the ankle joint + 10% to the knee joint - 10% (the skeleton's shank)
+#: is reproduced to 0.25 degrees median (p90 1.2) by B to 85%, 2.3 degrees by B to D.
+SHANK_AXIS_SHARE = 0.85
+#: the re-sliced profile after an axis update keeps this much leg beyond B and D, mm
+PROFILE_MARGIN_MM = 70.0
+
+
+@dataclass(frozen=True)
+class CalfAxis:
+    """A candidate leg placed: ``rotation`` (3, 3) rows x, y (anterior), z (up) and
+    ``origin_mm`` (3,) at B's centroid, in scan mm; ``anterior_cue`` (foot, calf_bulge,
+    undetermined); ``c_mm``, ``d_mm`` heights of C and D above B; the edge flags; a bent
+    knee's cut ``half_spaces`` ((point (3,), normal (3,)), ...)."""
+
+    rotation: np.ndarray
+    origin_mm: np.ndarray
+    anterior_cue: str
+    c_mm: float
+    d_mm: float
+    d_at_window_edge: bool
+    b_at_scan_edge: bool
+    d_at_scan_edge: bool
+    half_spaces: tuple
+
+
+def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None,
+             cut_end: int = 0):
+    """Coarse circumference profile along z (36 rays), for finding B, C, D.
+
+    The whole leg every :data:`FIRST_SPACING_MM`; a window ``z_range`` every
+    :data:`COARSE_SPACING_MM`.  ``cut_end`` +1 (-1): the leg was cut free of a bent
+    knee's thigh at its top (bottom) end; the partial sections next to that cut are not
+    measurements, however far they reach.  Returns heights (k,), girths (k,), the sections.
+    """
+    z = local[:, 2]
+    if z_range is None:
+        lo, hi, spacing = z.min(), z.max(), FIRST_SPACING_MM
+    else:
+        lo, hi, spacing = max(z.min(), z_range[0]), min(z.max(), z_range[1]), COARSE_SPACING_MM
+    # planes at whole multiples of the spacing from the leg's centroid: the same planes
+    # whichever way round the scan comes
+    heights = np.arange(np.ceil((lo + 1.0) / spacing), np.floor((hi - 1.0) / spacing) + 1) * spacing
+    if len(heights) < 20:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the scan is too short along its main axis to be a leg")
+    sections = slice_polar(local, faces, heights, COARSE_ANGLES, recentre=False)
+    girth = sections.circumferences()
+    # a crop plane oblique to the slicing planes leaves partial sections at the scan's
+    # ends, whose girth falls towards zero: they are not measurements of the leg
+    # (only within END_CUT_MM of the ends: an oblique cut spans at most that much of the
+    # axis, while a foot's sections can be incomplete over a longer run and are real)
+    partial = (sections.coverage < MIN_END_COVERAGE) & (
+        (heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
+    if cut_end:
+        inwards = np.arange(len(heights))[::-cut_end]  # from the cut end into the leg
+        whole = sections.coverage[inwards] >= MIN_END_COVERAGE
+        partial[inwards[: int(np.argmax(whole)) if whole.any() else len(inwards)]] = True
+        # whole sections can still reach the thigh on the shank's side of the cut (a knee
+        # bent past ~60 degrees): from the middle of the leg towards the cut, the shank's
+        # sections end at the first girth rise of MERGE_RISE within MERGE_RUN_MM
+        outwards = inwards[::-1]
+        g = np.where(partial, np.nan, girth)[outwards]
+        run = max(int(round(MERGE_RUN_MM / spacing)), 1)
+        with np.errstate(invalid="ignore"):
+            rise = g[run:] > (1.0 + MERGE_RISE) * g[:-run]
+        jumps = np.flatnonzero(rise[len(g) // 2 :]) + len(g) // 2
+        if jumps.size:
+            partial[outwards[jumps[0] + 1 :]] = True
+    girth[partial] = np.nan
+    return heights, girth, sections
+
+
+def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):
+    """The same profile seen from the other end: z -> -z, x -> -x, y kept (a rotation
+    by 180 degrees about y), so that nothing has to be sliced again."""
+    n = len(sections.angles_rad)
+    rays = (n // 2 - np.arange(n)) % n  # theta -> pi - theta
+    mirrored = PolarSections(
+        -heights[::-1],
+        sections.centroids_mm[::-1] * np.array([-1.0, 1.0]),
+        sections.radii_mm[::-1][:, rays],
+        sections.angles_rad,
+        sections.coverage[::-1],
+    )
+    return -heights[::-1], girth[::-1], mirrored
+
+
+def _pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Area-weighted surface samples, thinned by a fixed stride of floor(n / 30,000) (so
+    30k-60k of a large scan; the principal axes of 30k samples of a leg agree with all
+    of them to ~0.1 degree)."""
+    samples, weights = cf.surface_samples(points, faces)
+    stride = max(len(samples) // PCA_SAMPLES, 1)
+    return samples[::stride], None if weights is None else weights[::stride]
+
+
+def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray | None:
+    """Direction (3,), in the samples' frame, of the line through the centroids of the
+    compact slabs of the surface.
+
+    The surface samples are binned into :data:`SLAB_MM` slabs along z; each slab's
+    weighted centroid and 2x2 covariance are accumulated with bincount.  A slab counts
+    as leg-like when its spread is nearly round (sqrt of the eigenvalue ratio below
+    :data:`COMPACT_RATIO`): a shin is, a footprint is not.  Returns None when fewer
+    than 10 slabs qualify.
+    """
+    w = np.ones(len(local_samples)) if weights is None else weights
+    z = local_samples[:, 2]
+    slab = np.floor((z - z.min()) / SLAB_MM).astype(np.int64)
+    n = int(slab.max()) + 1
+    total = np.bincount(slab, weights=w, minlength=n)
+    keep = total > 0
+    moments = {}
+    x, y = local_samples[:, 0], local_samples[:, 1]
+    for name, values in (("x", x), ("y", y), ("xx", x * x), ("yy", y * y), ("xy", x * y), ("z", z)):
+        moments[name] = np.bincount(slab, weights=w * values, minlength=n)[keep] / total[keep]
+    cxx = moments["xx"] - moments["x"] ** 2
+    cyy = moments["yy"] - moments["y"] ** 2
+    cxy = moments["xy"] - moments["x"] * moments["y"]
+    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy**2
+    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+    small, large = half_trace - root, half_trace + root
+    compact = (small > 0) & (large < COMPACT_RATIO**2 * np.maximum(small, 1e-12))
+    if compact.sum() < 10:
+        return None
+    centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
+    direction = cf.principal_axis(centres, total[keep][compact])
+    return direction if direction[2] > 0 else -direction
+
+
+def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) -> tuple[FeatureHeights, bool]:
+    """Landmarks with the scan's axis as it is or reversed; (features, reversed?).
+
+    When both orientations give landmarks (possible once landmarks may lie at the scan's
+    edge), the one with fewer landmarks at the edge wins, then the one whose knee end is
+    thicker relative to the ankle (anatomy: D/B is 1.4-1.7, its inverse below 1).
+    """
+    found, failures = [], []
+    for flipped in (False, True):
+        h, g, e = (-heights[::-1], girth[::-1], elongation[::-1]) if flipped else (heights, girth, elongation)
+        try:
+            found.append((find_feature_heights(h, g, elongation=e), flipped))
+        except FitFailure as failure:
+            failures.append((failure, flipped))
+    if found:
+        return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
+    # report the failure of the more plausible orientation: the foot's end down (a foot
+    # is at the bottom of a leg; its sections are elongated, MAX_CALF_ELONGATION); with
+    # no end told by a foot, a foot found one way outranks a missing ankle the other way
+    # (the foot read as a calf upside down; a missing knee found an ankle and a calf,
+    # and stays); else the knee end thicker
+    measured = girth[np.isfinite(girth)]
+    tenth = max(len(measured) // 10, 1)
+    stretched = elongation[np.isfinite(elongation)]
+    if stretched.size >= 2 * tenth:
+        foot_low = bool(np.median(stretched[:tenth]) > MAX_CALF_ELONGATION)
+        foot_high = bool(np.median(stretched[-tenth:]) > MAX_CALF_ELONGATION)
+        if foot_low != foot_high:
+            raise failures[0][0] if foot_low else failures[1][0]
+    feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
+    if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
+        raise feet[0]
+    ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
+    raise failures[0][0] if ends_up else failures[1][0]
+
+
+def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
+    """Which end of the profile along ``axis`` a bent knee's cut lies at: +1 top, -1
+    bottom, 0 no cut (the first half-space passes through the knee)."""
+    if not half_spaces:
+        return 0
+    return 1 if (half_spaces[0][0] - centre) @ axis > 0 else -1
+
+
+def _orient(points, faces, axis, basis, up, half_spaces=()):
+    """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
+    girths, sections, features, axis, basis.  ``half_spaces``: a bent knee's cut."""
+    centre = points.mean(axis=0)
+    local = (points - centre) @ basis.T
+    heights, girth, sections = _profile(local, faces, cut_end=_cut_end(half_spaces, centre, axis))
+    if up is not None:
+        feats = find_feature_heights(heights, girth, elongation=sections.elongations())
+    else:
+        feats, flipped = _either_way(heights, girth, sections.elongations())
+        if flipped:  # the scan's axis pointed towards the foot
+            axis = -axis
+            basis = cf.perpendicular_basis(axis, basis[1])
+            local = (points - centre) @ basis.T
+            heights, girth, sections = _mirror(heights, girth, sections)
+    return centre, local, heights, girth, sections, feats, axis, basis
+
+
+def _first_axis(samples, weights, shape_axes, up):
+    axis = shape_axes[2]
+    if up is not None and axis @ up < 0:
+        axis = -axis
+    centre = samples.mean(axis=0)
+    basis = cf.perpendicular_basis(axis, shape_axes[1])
+    # a flat foot drags the PCA axis; the line through the centroids of the compact
+    # (leg-like, not footprint-like) slabs of the surface does not
+    for _ in range(CENTROID_LINE_ITERATIONS):
+        line = _centroid_line_axis((samples - centre) @ basis.T, weights)
+        if line is None:
+            break
+        new_axis = basis.T @ line
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+    return axis, basis
+
+
+def _section_centre_line(heights: np.ndarray, girth: np.ndarray, sections: PolarSections,
+                         b_mm: float, d_mm: float) -> np.ndarray | None:
+    """Direction (3,), in the slicing frame, of the shank's long axis: the least-squares
+    line through the area centroids of the sections from B up to
+    :data:`SHANK_AXIS_SHARE` of the way to D.  A tape is held perpendicular to it.
+
+    Why not PCA of the calf's surface (the paper's section 2.1): the gastrocnemius bulges
+    backwards in the upper calf only, so the surface's principal direction leans 2-3
+    degrees towards it, and at the knee waist a plane tilted that much dips into the
+    hollow of the knee and reads a girth 3-5 mm below a tape's.  The section centroids
+    follow the limb; below the knee they lie on a nearly straight line (the tibial
+    shaft's), but in the last ~15% below D the hamstring tendons and the femoral
+    condyles pull them backwards.  Partial sections (NaN girth) are left out; None
+    when fewer than 10 remain.
+    """
+    d_mm = b_mm + SHANK_AXIS_SHARE * (d_mm - b_mm)
+    rows = (heights >= b_mm) & (heights <= d_mm) & np.isfinite(girth) & sections.valid
+    if rows.sum() < 10:
+        return None
+    a = sections.angles_rad
+    radii = sections.radii_mm[rows]
+    contour = np.stack([radii * np.cos(a), radii * np.sin(a)], axis=-1)
+    centres = sections.centroids_mm[rows] + polygon_centroid(contour)
+    direction = cf.principal_axis(np.column_stack([centres, heights[rows]]))
+    return direction if direction[2] > 0 else -direction
+
+
+def _refine(oriented, points, faces, samples, weights, half_spaces):
+    """The calf's long axis (:func:`_section_centre_line`; the paper's section 2.1
+    uses PCA of the calf between B and D), the landmarks found again along it, at most
+    :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
+    :data:`AXIS_TOLERANCE_DEG`.  ``oriented``: what :func:`_orient` found."""
+    centre, local, heights, girth, sections, feats, axis, basis = oriented
+    for _ in range(MAX_AXIS_ITERATIONS):
+        line = _section_centre_line(heights, girth, sections, feats.b_mm, feats.d_mm)
+        if line is None:
+            sample_z = (samples - centre) @ basis[2]
+            calf = (sample_z >= feats.b_mm) & (sample_z <= feats.d_mm)
+            new_axis = cf.principal_axis(samples[calf], None if weights is None else weights[calf])
+        else:
+            new_axis = basis.T @ line
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+        if moved < REDETECT_DEG:
+            # a small tilt moves B and D by well under a millimetre: keep the landmarks
+            # (re-expressed about the same centre) and only adopt the calf's axis
+            axis = new_axis
+            basis = cf.perpendicular_basis(axis, basis[1])
+            local = (points - centre) @ basis.T
+            break
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        local = (points - centre) @ basis.T
+        window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
+        heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
+        feats = find_feature_heights(heights, girth, feats.c_mm, sections.elongations())
+    return centre, local, heights, girth, sections, feats, axis, basis
+
+
+def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None) -> CalfAxis:
+    """Axis, B/C/D, refined calf axis, anterior direction: one candidate leg's placement.
+
+    Paper section 2.1: PCA of the whole leg gives a first axis (refined by the compact
+    slabs' centre line); B, C, D are found on the profile along it; then the axis is
+    re-estimated as the calf's long axis (:func:`_section_centre_line`; the paper uses
+    PCA of the calf between B and D) and the landmarks found again, at
+    most :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
+    :data:`AXIS_TOLERANCE_DEG`.  When the first axis finds no calf, the straight runs of
+    the leg's centre line (a bent knee) are tried in turn.
+
+    points (n, 3) scan mm of one leg, faces (f, 3) or None; ``up`` (3,) the feet-to-head
+    direction when known (a leg cut from a body).  Raises FitFailure with the reason.
+    """
+    samples, weights = _pca_samples(points, faces)
+    shape_axes = cf.principal_frame(samples, weights)
+    extents = np.ptp(samples @ shape_axes.T, axis=0)
+    if up is None and extents[2] < MIN_ASPECT * extents[:2].max():
+        raise FitFailure(
+            FailureReason.NOT_A_LEG,
+            f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
+            f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
+        )
+    axis, basis = _first_axis(samples, weights, shape_axes, up)
+    if faces is None:
+        # a cloud is sliced along this axis and then along axes a few degrees from it:
+        # sorted along it once, each slicing's sort is a pass over nearly sorted data
+        points = points[np.argsort(points @ axis, kind="stable")]
+    half_spaces: tuple = ()
+    try:
+        # a bent leg's first axis is the body's: its landmarks may be found, and then not
+        # found again along the calf's own axis - that too sends the leg to its runs
+        centre, local, heights, girth, sections, feats, axis, basis = _refine(
+            _orient(points, faces, axis, basis, up), points, faces, samples, weights, ())
+    except FitFailure as straight_failure:
+        run_failures = [straight_failure]
+        for run in shank_runs(samples, weights, axis):
+            run_basis = cf.perpendicular_basis(run.direction, basis[1])
+            run_points, run_faces = clip_to_half_spaces(points, faces, run.half_spaces)
+            kept = keep_index(samples, run.half_spaces)
+            run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
+            try:
+                oriented = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
+                                   run_points, run_faces, run_samples, run_weights, run.half_spaces)
+            except FitFailure as failure:
+                run_failures.append(failure)
+                continue
+            centre, local, heights, girth, sections, feats, axis, basis = oriented
+            points, faces, half_spaces = run_points, run_faces, run.half_spaces
+            break
+        else:
+            # the reading that got furthest up the leg (ankle found, then calf, then
+            # knee): a reading that found the ankle and the calf but no knee names what is
+            # really missing better than one that found no ankle - a foot read as the
+            # calf, upside down, finds no ankle above it.  Ties: the straight axis's.
+            raise max(run_failures, key=failure_stage)
+
+    # anterior: the foot when there is one, else opposite the calf bulge
+    calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid
+    if calf_rows.sum() < 10:
+        raise FitFailure(FailureReason.NOT_A_LEG, "the calf's cross-sections could not be measured")
+    b_centre = sections.centroids_mm[calf_rows][0]
+    b_radius = float(sections.mean_radii()[calf_rows][0])
+    shifted = local - np.array([0.0, 0.0, feats.b_mm])
+    anterior = cf.anterior_from_foot(shifted, b_centre, b_radius)
+    cue = "foot"
+    if anterior is None:
+        anterior = cf.anterior_from_calf_bulge(sections.centroids_mm[calf_rows], heights[calf_rows], feats.c_mm)
+        cue = "calf_bulge"
+    if anterior is None:
+        anterior, cue = np.array([0.0, 1.0]), "undetermined"
+    hint = anterior[0] * basis[0] + anterior[1] * basis[1]
+    rotation = cf.perpendicular_basis(axis, hint)
+    origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
+    return CalfAxis(rotation, origin, cue, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm,
+                    feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces)
+
+
+def clip_to_half_spaces(points: np.ndarray, faces: np.ndarray | None, half_spaces) -> tuple[np.ndarray, np.ndarray | None]:
+    """The points (n, 3) and faces inside ``half_spaces`` (all of them when empty)."""
+    if not half_spaces:
+        return points, faces
+    index = keep_index(points, half_spaces)
+    return points[index], cf.submesh(index, faces, len(points))

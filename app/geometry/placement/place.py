@@ -1,0 +1,304 @@
+"""Finding the leg in a scan and placing its calf frame (paper section 2.1).
+
+One room for everything between a loaded scan and the calf frame; :func:`place_leg`
+returns a :class:`PlacedLeg` (the leg's points and faces) whose :class:`LegPlacement`
+is plain, serialisable data that an upload check hands to the fit
+(:func:`replace_leg` rebuilds the leg from it without searching again).
+
+Steps (mm throughout):
+1. clean-up (:mod:`app.geometry.scan.cleanup`): floor or platform, spikes, stray pieces;
+2. candidate legs: each remaining piece; a whole body (longer than
+   :data:`app.geometry.placement.calf_frame.BODY_MIN_LENGTH_MM`) or two legs joined at the hips
+   (two shins side by side, :func:`app.geometry.placement.calf_frame.split_two_legs`) is cut into
+   its legs;
+3. each candidate is placed by :func:`app.geometry.placement.leg_axis.place_candidate`: the
+   shank's axis (for a bent knee, cut free of the thigh), B, C, D along it, anterior;
+4. the legs found: none - the failure of the largest candidate; one - it; several - the
+   one named by ``side``, or :data:`FailureReason.SEVERAL_LEGS` listing them;
+5. a single leg's side, when not given: from its foot (:mod:`app.geometry.anatomy.side`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry.anatomy.side import infer_side
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
+from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
+from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan
+from app.geometry.scan.reader import MIN_POINTS, Scan
+from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
+
+#: a given side against a foot inference at least this confident is warned about (on the
+#: inference's own scale, app.geometry.anatomy.side: 0.5 is a symmetric foot, 1 a clear one)
+CONTRADICTED_SIDE_CONFIDENCE = 0.9
+
+#: a piece shorter than this cannot hold an ankle, a calf and a knee waist, mm
+#: (ANSUR II: lateral malleolus to tibiale is at least ~300 mm)
+MIN_LEG_LENGTH_MM = 200.0
+
+
+@dataclass(frozen=True)
+class LegPlacement:
+    """Where the calf is in a scan: JSON-ready, to hand from the upload check to the fit.
+
+    rotation (3, 3) rows x, y (anterior), z (up) in scan mm; origin_mm (3,) at B;
+    c_mm, d_mm heights of C and D above B; the edge flags; the side and where it came
+    from (``given``, ``body`` - from the other leg -, ``foot``, or None) with a
+    confidence in [0.5, 1]; ``piece`` and ``half`` say which cleaned piece and which
+    leg of it; ``warnings`` in words.
+    """
+
+    rotation: np.ndarray
+    origin_mm: np.ndarray
+    mm_per_unit: float
+    anterior_cue: str
+    c_mm: float
+    d_mm: float
+    d_at_window_edge: bool = False
+    b_at_scan_edge: bool = False
+    d_at_scan_edge: bool = False
+    side: str | None = None
+    side_source: str | None = None
+    side_confidence: float | None = None
+    piece: int = 0
+    half: int = -1
+    warnings: tuple = ()
+    #: a bent knee's cut: ((point (3,), normal (3,)), ...) in scan mm, keep (p - point) . normal <= 0
+    half_spaces: tuple = ()
+    #: what the clean-up found (floor planes, a cloud's voxel size and point spacing): the
+    #: fit repeats the clean-up from it; None in a placement stored before it was kept
+    #: (the clean-up is then searched for again, with the same result)
+    cleanup: CleanupReplay | None = None
+
+    @property
+    def frame(self) -> cf.CalfFrame:
+        return cf.CalfFrame(self.rotation, self.origin_mm, self.mm_per_unit, self.anterior_cue)
+
+    def to_dict(self) -> dict:
+        return {
+            "rotation": np.asarray(self.rotation).tolist(), "origin_mm": np.asarray(self.origin_mm).tolist(),
+            "mm_per_unit": self.mm_per_unit, "anterior_cue": self.anterior_cue,
+            "c_mm": self.c_mm, "d_mm": self.d_mm, "d_at_window_edge": self.d_at_window_edge,
+            "b_at_scan_edge": self.b_at_scan_edge, "d_at_scan_edge": self.d_at_scan_edge,
+            "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
+            "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
+            "half_spaces": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.half_spaces],
+            **(self.cleanup.to_dict() if self.cleanup is not None else {}),
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> LegPlacement:
+        return cls(
+            rotation=np.asarray(data["rotation"], dtype=float), origin_mm=np.asarray(data["origin_mm"], dtype=float),
+            mm_per_unit=float(data["mm_per_unit"]), anterior_cue=str(data["anterior_cue"]),
+            c_mm=float(data["c_mm"]), d_mm=float(data["d_mm"]),
+            d_at_window_edge=bool(data.get("d_at_window_edge", False)),
+            b_at_scan_edge=bool(data.get("b_at_scan_edge", False)), d_at_scan_edge=bool(data.get("d_at_scan_edge", False)),
+            side=data.get("side"), side_source=data.get("side_source"), side_confidence=data.get("side_confidence"),
+            piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
+            half_spaces=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float))
+                              for p, n in data.get("half_spaces", ())),
+            cleanup=CleanupReplay.from_dict(data),
+        )
+
+
+@dataclass(frozen=True)
+class PlacedLeg:
+    """A leg cut out of its scan (scan mm: points (n, 3), faces (f, 3) or None) and its
+    placement."""
+
+    points: np.ndarray
+    faces: np.ndarray | None
+    placement: LegPlacement
+
+
+@dataclass(frozen=True)
+class _Candidate:
+    points: np.ndarray
+    faces: np.ndarray | None
+    up: np.ndarray | None
+    piece: int
+    half: int
+    n_points: int = field(default=0)
+
+
+def _placement_of(axis: CalfAxis, mm_per_unit: float) -> LegPlacement:
+    """The serialisable placement of a placed candidate (its side and piece filled in
+    later by :func:`place_leg`)."""
+    return LegPlacement(axis.rotation, axis.origin_mm, mm_per_unit, axis.anterior_cue, axis.c_mm, axis.d_mm,
+                        axis.d_at_window_edge, axis.b_at_scan_edge, axis.d_at_scan_edge, half_spaces=axis.half_spaces)
+
+
+def _candidates(clean: CleanScan) -> list[_Candidate]:
+    """Candidate legs: every cleaned piece, bodies and joined pairs of legs cut in two."""
+    out = []
+    for piece, index in enumerate(clean.pieces):
+        points = clean.points[index]
+        faces = cf.submesh(index, clean.faces, len(clean.points))
+        cuts = _split(points, clean.spacing_p95_mm)
+        if cuts is None:
+            out.append(_Candidate(points, faces, None, piece, -1, len(points)))
+            continue
+        for half, cut in enumerate(cuts):
+            out.append(_Candidate(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)),
+                                  cut.up, piece, half, len(cut.point_index)))
+    return out
+
+
+def _split(points: np.ndarray, spacing_p95_mm: float | None = None):
+    """The legs of a whole body or of two legs joined at the hips; None for one leg.
+    ``spacing_p95_mm``: the scan's point spacing when the clean-up measured it."""
+    return cf.split_body_legs(points, spacing_p95_mm) if _is_body(points) else cf.split_two_legs(points, spacing_p95_mm)
+
+
+def _is_body(points: np.ndarray) -> bool:
+    """A whole body: longer than :data:`app.geometry.placement.calf_frame.BODY_MIN_LENGTH_MM` along
+    its main axis (PCA of a 20k-point subsample)."""
+    sample = points[:: max(len(points) // 20000, 1)]
+    return float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM
+
+
+def _sides_of(legs: list[tuple[_Candidate, LegPlacement]]) -> list[str]:
+    """Left / right of two or more legs of one person, from their shared anterior and up
+    directions (right = anterior x up), the legs compared along that direction."""
+    up = sum(p.rotation[2] for _, p in legs)
+    anterior = sum(p.rotation[1] for _, p in legs)
+    right = np.cross(anterior, up)
+    along = np.array([p.origin_mm @ right for _, p in legs])
+    sides = ["unknown"] * len(legs)
+    order = np.argsort(along)
+    sides[order[0]], sides[order[-1]] = "left", "right"
+    return sides
+
+
+def _describe(placement: LegPlacement, side: str, points: int) -> str:
+    return f"a {side} leg ({points} points, calf {placement.c_mm:.0f} mm above its ankle)"
+
+
+def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
+    """Find the leg of ``scan`` (see the module docstring); raises FitFailure.
+
+    A refusal about the leg's shape on a scan too short to be a leg names the unit that
+    would make it one (:func:`app.geometry.placement.leg_size.with_unit_hint`)."""
+    try:
+        return _place_leg(scan, side)
+    except FitFailure as failure:
+        extent = float(np.ptp(scan.points_mm, axis=0).max()) if len(scan.points_mm) else 0.0
+        if not scan.is_mesh and failure.reason in SHAPE_REASONS and failure.reason is not FailureReason.TOO_SPARSE:
+            # a cloud too sparse to measure fails on its shape; over its length it needs
+            # twice a leg's density (a body or two legs hold two legs side by side)
+            density = len(scan.points_mm) / max(extent, 1e-9)
+            if density < 2 * MIN_CLOUD_POINTS_PER_MM:
+                raise FitFailure(
+                    FailureReason.TOO_SPARSE,
+                    f"the cloud is too sparse to find the leg in: it has {density:.1f} points per mm of its length; a "
+                    f"cloud needs about {MIN_CLOUD_POINTS_PER_MM:g} point per mm of each leg's height "
+                    f"({2 * MIN_CLOUD_POINTS_PER_MM:g} per mm of a body's or two legs' length) to close its sections: "
+                    "export the scan denser, or as a mesh") from failure
+        hinted = with_unit_hint(failure, extent, scan.units, scan.units_detected)
+        if hinted is failure:
+            raise
+        raise hinted from failure
+
+
+def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
+    clean = clean_scan(scan.points_mm, scan.faces)
+    if len(clean.points) < MIN_POINTS:  # e.g. a mesh of zero-area triangles only
+        raise FitFailure(
+            FailureReason.TOO_FEW_POINTS,
+            f"after removing the floor, needle triangles and stray points, {len(clean.points)} of the scan's "
+            f"{len(scan.points_mm)} points are left; at least {MIN_POINTS} are needed",
+        )
+    warnings = []
+    if clean.floor is not None:
+        warnings.append(f"a floor or platform plane was removed ({clean.floor.n_removed} points)")
+    if clean.n_spike_faces:
+        warnings.append(f"{clean.n_spike_faces} needle triangles (spikes) were removed")
+    legs: list[tuple[_Candidate, LegPlacement]] = []
+    failures: list[tuple[int, FitFailure]] = []
+    for candidate in _candidates(clean):
+        extent = np.ptp(candidate.points, axis=0).max() if len(candidate.points) else 0.0
+        if extent < MIN_LEG_LENGTH_MM and len(clean.pieces) > 1:
+            continue
+        try:
+            legs.append((candidate, _placement_of(place_candidate(candidate.points, candidate.faces, candidate.up), scan.mm_per_unit)))
+        except FitFailure as failure:
+            failures.append((candidate.n_points, failure))
+    if not legs:
+        if failures:
+            raise max(failures, key=lambda f: f[0])[1]
+        raise FitFailure(FailureReason.NOT_A_LEG, "no part of the scan is long enough to be a lower leg")
+    ignored = len(clean.pieces) - len({c.piece for c, _ in legs})
+    if ignored > 0:
+        warnings.append(f"{ignored} detached piece(s) of the scan were ignored (no ankle, calf and knee in them)")
+    if len(legs) == 1:
+        candidate, placement = legs[0]
+        guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
+        if side is not None:
+            # the clinician's side is kept (a foot can mislead: a deformity, an amputated
+            # toe, a bandage), but a confident foot that says otherwise is said in the
+            # record's warnings - left and right swap medial and lateral in every design
+            found: str | None = side
+            source: str | None = "given"
+            confidence: float | None = None
+            if (guess.side is not None and guess.side != side
+                    and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE):
+                warnings.append(
+                    f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
+                    f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is wrong, "
+                    "medial and lateral are swapped in every design - check the scan and upload it again with the "
+                    "right side")
+        else:
+            found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
+            if guess.side is None and guess.reason:
+                warnings.append(f"left or right could not be told: {guess.reason}")
+    else:
+        sides = _sides_of(legs)
+        if side is None or side not in sides:
+            listed = "; ".join(_describe(p, s, c.n_points) for (c, p), s in zip(legs, sides))
+            hint = "pass side=left or side=right" if side is None else f"no {side} leg could be told apart"
+            raise FitFailure(FailureReason.SEVERAL_LEGS, f"the scan holds {len(legs)} legs: {listed}; {hint}")
+        pick = sides.index(side)
+        candidate, placement = legs[pick]
+        found, source, confidence = side, "body", None
+    if placement.half_spaces:
+        warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
+                        "the knee angle, and measured only where that cut leaves its sections whole")
+    if placement.b_at_scan_edge:
+        warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge; "
+                        "include the heel in the next scan for a surer ankle")
+    if placement.d_at_window_edge and not placement.d_at_scan_edge:
+        warnings.append("the knee waist D has no distinct minimum below the knee: D is the top of its search window "
+                        f"({placement.d_mm - placement.c_mm:.0f} mm above the calf maximum), and its height and girth "
+                        "are less certain than the other landmarks'")
+    if placement.d_at_scan_edge:
+        warnings.append("the scan ends at the knee waist D: D is taken at the scan's edge; "
+                        "scan 3-4 cm further above the knee for a surer D")
+    placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
+                                "side_confidence": confidence, "piece": candidate.piece,
+                                "half": candidate.half, "warnings": tuple(warnings),
+                                "cleanup": clean.replay})
+    leg = PlacedLeg(*clip_to_half_spaces(candidate.points, candidate.faces, placement.half_spaces), placement)
+    # a leg in inches reads as one in cm: the girth at C tells (app.geometry.placement.leg_size)
+    check_leg_size(placement.frame.to_calf(leg.points), placement.c_mm, scan.units, scan.units_detected)
+    return leg
+
+
+def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
+    """The leg of a placement found earlier on the same scan, without searching again:
+    the clean-up is repeated from the floor planes and voxel size it found, and the same
+    piece and leg are cut out."""
+    clean = clean_scan(scan.points_mm, scan.faces, placement.cleanup)
+    if placement.piece >= len(clean.pieces):
+        raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
+    index = clean.pieces[placement.piece]
+    points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
+    if placement.half >= 0:
+        cut = _split(points, clean.spacing_p95_mm)[placement.half]
+        points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
+    return PlacedLeg(*clip_to_half_spaces(points, faces, placement.half_spaces), placement)

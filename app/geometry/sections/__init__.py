@@ -1,0 +1,49 @@
+"""Cross-sections of a scan resampled on a polar grid (paper section 2.1).
+
+:mod:`~app.geometry.sections.polar` holds the type (:class:`PolarSections`) and its
+plane geometry; :mod:`~app.geometry.sections.mesh` slices a mesh exactly (plane-section
+segments, rays from the centroid), :mod:`~app.geometry.sections.cloud` a point cloud
+(robust polar fits of slabs).  :func:`slice_polar` and :func:`tape_girths` choose
+between the two.  Units: mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.geometry.sections.cloud import slice_points_polar
+from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
+from app.geometry.sections.polar import PolarSections, polygon_centroid, polygon_perimeter, ray_angles
+
+__all__ = ["PolarSections", "mesh_section_segments", "polygon_centroid", "polygon_perimeter", "ray_angles",
+           "slice_mesh_polar", "slice_points_polar", "slice_polar", "tape_girths"]
+
+
+def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+    """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
+    section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm.
+
+    The hull is taken of the robust polar fit of the section on 360 rays
+    (:mod:`app.geometry.sections.cloud`): of the slab of points for a cloud, of the exact
+    plane-section segment ends for a mesh - so scanner noise on the vertices, which the
+    hull of the raw section would pick up at its outermost points, is averaged out.
+    NaN where there is no section.
+    """
+    heights = np.asarray(heights, dtype=np.float64)
+    if faces is not None and len(faces):
+        plane, seg = mesh_section_segments(points, faces, heights)
+        ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
+        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6)
+    else:
+        sections = slice_points_polar(points, heights, 360)
+    return sections.tape_perimeters()
+
+
+def slice_polar(
+    points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, n_angles: int = 72, recentre: bool = True
+) -> PolarSections:
+    """Dispatch to :func:`slice_mesh_polar` or
+    :func:`app.geometry.sections.cloud.slice_points_polar`."""
+    if faces is not None and len(faces):
+        return slice_mesh_polar(points, faces, heights, n_angles, recentre)
+    return slice_points_polar(points, heights, n_angles)

@@ -1,0 +1,186 @@
+"""How far the surface stands off the scan: the other side of the error index.
+
+The error index E (paper eq. 4) and the max error measure scan -> surface: every scan
+point's distance to the surface.  A surface can satisfy them and still leave the skin
+where no scan point pulls it - an lsq border row free of data, a fold between layers -
+and a stocking knitted from it is then wrong.  :func:`surface_to_scan` samples the
+surface densely over its whole domain (:data:`SAMPLES_AROUND` x one row per
+:data:`ROW_SPACING_MM` of height) and measures each sample's distance to the scan:
+
+- a mesh: the exact distance to the nearest of the triangles around the sample's
+  :data:`NEAREST_VERTICES` nearest vertices (Ericson 5.1.5, via
+  :func:`app.geometry.spline.distance.point_triangle_distances`);
+- a cloud: the distance to the nearest point (an upper bound: on the skin it is up
+  to about the point spacing, so a cloud's off-skin threshold is :data:`OFF_SKIN_MM`
+  plus its median point spacing).
+
+Only samples **where the scan has data** count: a sample whose nearest skin point
+(the cloud's points; points every ~2 mm on a mesh's triangles) lies across the surface
+from it - its offset mostly along the normal, tangentially within
+:data:`TANGENT_SLACK_MM` plus its normal part - faces skin; one whose nearest skin lies
+beside it (the rim of a hole, past a cropped end) faces none and is left out: there the
+surface bridges by design.
+The result gives the median, p99 and max over the counted samples, the share of the
+surface the scan covers, and where the worst sample lies.  Units: mm; calf frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from app.geometry.spline.distance import point_triangle_distances
+from app.geometry.spline.nurbs import NurbsSurface, evaluate_derivatives
+
+SAMPLES_AROUND = 72
+ROW_SPACING_MM = 3.0
+NEAREST_VERTICES = 3
+#: at most this many triangles around one vertex are tested (a mesh vertex has ~6)
+FACES_PER_VERTEX = 8
+#: skin this far beyond the calf's ends still counts (a surface flaring past B or D)
+MARGIN_MM = 10.0
+#: a sample's nearest skin may lie this far beside it (the 2 mm sampling of a mesh's
+#: triangles, a cloud's spacing) and still count as skin across from it
+TANGENT_SLACK_MM = 2.0
+#: a surface further than this from skin the scan has is off the skin
+OFF_SKIN_MM = 3.0
+#: ... and warned about when an arc of a ring this large (a share of its samples: 5% is
+#: 18 degrees) stands off: a fold the surface bridges (behind the knee, 1-2 samples of a
+#: ring) is what a tape and a stocking bridge too; an arc changes the ring's girth
+OFF_SKIN_RING_SHARE = 0.05
+
+
+@dataclass(frozen=True)
+class SkinDistance:
+    """Surface -> scan distances over the samples where the scan has data (mm)."""
+
+    median_mm: float
+    p99_mm: float
+    max_mm: float
+    coverage: float  # share of the surface samples where the scan has data
+    off_skin_share: float  # share of the counted samples more than OFF_SKIN_MM off
+    worst_height_mm: float  # calf-frame z of the worst counted sample
+    worst_v: float  # its v (0: B, 1: D)
+    n_samples: int
+    #: the largest share of one ring's counted samples (a row of constant v) that is more
+    #: than OFF_SKIN_MM off: an arc of the ring, which changes its girth
+    worst_ring_share: float = 0.0
+    worst_ring_height_mm: float = float("nan")
+
+    @property
+    def off_skin(self) -> bool:
+        """An arc of at least OFF_SKIN_RING_SHARE of some ring stands off the skin."""
+        return self.worst_ring_share >= OFF_SKIN_RING_SHARE
+
+    def as_dict(self) -> dict:
+        return {"median_mm": self.median_mm, "p99_mm": self.p99_mm, "max_mm": self.max_mm, "coverage": self.coverage,
+                "off_skin_share": self.off_skin_share, "worst_height_mm": self.worst_height_mm,
+                "worst_v": self.worst_v, "n_samples": self.n_samples, "worst_ring_share": self.worst_ring_share,
+                "worst_ring_height_mm": self.worst_ring_height_mm}
+
+
+def _faces_of_vertices(faces: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(n_vertices, FACES_PER_VERTEX) face indices around each vertex, -1 padded."""
+    corners = faces.ravel()
+    order = np.argsort(corners, kind="stable")
+    owner = order // 3
+    starts = np.searchsorted(corners[order], np.arange(n_vertices))
+    counts = np.bincount(corners, minlength=n_vertices)
+    slot = np.arange(FACES_PER_VERTEX)
+    index = starts[:, None] + slot[None, :]
+    table = np.where(slot[None, :] < counts[:, None], owner[np.minimum(index, len(owner) - 1)], -1)
+    return table
+
+
+#: spacing of the points sampled on a mesh's triangles for the data bins (mm), and their cap
+SKIN_SAMPLE_MM = 2.0
+MAX_SKIN_SAMPLES = 200_000
+
+
+def _points_on_triangles(vertices: np.ndarray, faces: np.ndarray, low_mm: float, high_mm: float) -> np.ndarray:
+    """Points on the triangles reaching [low_mm, high_mm]: each triangle's corners and a
+    barycentric lattice of about one point per SKIN_SAMPLE_MM^2 of its area (at most
+    MAX_SKIN_SAMPLES in all), deterministic."""
+    z = vertices[:, 2][faces]
+    faces = faces[(z.max(axis=1) >= low_mm - MARGIN_MM) & (z.min(axis=1) <= high_mm + MARGIN_MM)]
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    steps = np.clip(np.ceil(np.sqrt(2.0 * area) / SKIN_SAMPLE_MM).astype(np.int64), 1, 16)
+    total = int((steps * (steps + 1) // 2).sum())
+    if total > MAX_SKIN_SAMPLES:  # dense meshes: the corners are enough
+        return np.concatenate([a, b, c])
+    out = [a, b, c]
+    for n in np.unique(steps[steps > 1]):  # one lattice per subdivision level (a few levels)
+        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        keep = i + j <= n
+        wb, wc = (i[keep] / n)[None, :, None], (j[keep] / n)[None, :, None]
+        pick = steps == n
+        out.append((a[pick, None] * (1 - wb - wc) + b[pick, None] * wb + c[pick, None] * wc).reshape(-1, 3))
+    return np.concatenate(out)
+
+
+def _distances_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    _, nearest = cKDTree(vertices).query(samples, k=NEAREST_VERTICES)
+    table = _faces_of_vertices(faces, len(vertices))
+    candidates = table[nearest].reshape(len(samples), -1)  # (s, k * F)
+    valid = candidates >= 0
+    tri = faces[np.where(valid, candidates, 0)]  # (s, c, 3)
+    distance = point_triangle_distances(samples[:, None, :], vertices[tri[..., 0]], vertices[tri[..., 1]],
+                                        vertices[tri[..., 2]])
+    return np.where(valid, distance, np.inf).min(axis=1)
+
+
+def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray | None,
+                    low_mm: float, high_mm: float) -> SkinDistance:
+    """Surface -> scan distances (module docstring).  points (n, 3) calf-frame mm, faces
+    (f, 3) or None; the scan's skin counts between ``low_mm`` and ``high_mm`` (and
+    :data:`MARGIN_MM` beyond)."""
+    if faces is not None and len(faces):  # only the vertices of triangles: a hole's vertices are no skin
+        used, inverse = np.unique(faces, return_inverse=True)
+        points, faces = points[used], inverse.reshape(faces.shape)
+    u0, u1 = surface.domain_u
+    v0, v1 = surface.domain_v
+    rows = max(int(np.ceil((high_mm - low_mm) / ROW_SPACING_MM)) + 1, 8)
+    u = u0 + (u1 - u0) * np.arange(SAMPLES_AROUND) / SAMPLES_AROUND
+    v = np.linspace(v0, v1, rows)
+    uu, vv = np.meshgrid(u, v, indexing="ij")
+    samples, su, sv, _, _, _ = evaluate_derivatives(surface, uu.ravel(), vv.ravel())
+    normal = np.cross(su, sv)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+    skin = points if faces is None or not len(faces) else _points_on_triangles(points, faces, low_mm, high_mm)
+    skin = skin[(skin[:, 2] >= low_mm - MARGIN_MM) & (skin[:, 2] <= high_mm + MARGIN_MM)]
+    if not len(skin):
+        return SkinDistance(float("nan"), float("nan"), float("nan"), 0.0, 0.0, float("nan"), float("nan"), 0)
+    tree = cKDTree(skin)
+    _, nearest = tree.query(samples)
+    offset = skin[nearest] - samples
+    along_normal = np.einsum("ij,ij->i", offset, normal)
+    tangential = np.linalg.norm(offset - along_normal[:, None] * normal, axis=1)
+    # the scan has skin here when its nearest skin lies across the surface (off it or on
+    # it), not beside it (the rim of a hole, past a cropped end)
+    counted = tangential <= TANGENT_SLACK_MM + np.abs(along_normal)
+    allowance = 0.0
+    if faces is not None and len(faces):
+        distance = _distances_to_mesh(samples[counted], points, faces)
+    else:
+        distance = np.linalg.norm(offset[counted], axis=1)
+        # on the skin, a sample's nearest point of a cloud is up to about the point
+        # spacing away: the off-skin threshold grows by the cloud's median spacing
+        some = skin[:: max(len(skin) // 5000, 1)]
+        allowance = float(np.median(tree.query(some, k=2)[0][:, 1])) if len(skin) > 1 else 0.0
+    if not len(distance):
+        return SkinDistance(float("nan"), float("nan"), float("nan"), 0.0, 0.0, float("nan"), float("nan"), 0)
+    worst = int(np.argmax(distance))
+    row = np.broadcast_to(np.arange(rows)[None, :], (SAMPLES_AROUND, rows)).ravel()[counted]
+    per_ring = np.bincount(row, minlength=rows)
+    off = np.bincount(row, weights=(distance > OFF_SKIN_MM + allowance).astype(float), minlength=rows)
+    share = np.divide(off, per_ring, out=np.zeros(rows), where=per_ring >= SAMPLES_AROUND // 4)
+    ring = int(np.argmax(share))
+    return SkinDistance(
+        median_mm=float(np.median(distance)), p99_mm=float(np.percentile(distance, 99)), max_mm=float(distance[worst]),
+        coverage=float(counted.mean()), off_skin_share=float((distance > OFF_SKIN_MM + allowance).mean()),
+        worst_height_mm=float(samples[counted][worst, 2]), worst_v=float(vv.ravel()[counted][worst]),
+        n_samples=int(counted.sum()), worst_ring_share=float(share[ring]),
+        worst_ring_height_mm=float(np.median(samples.reshape(SAMPLES_AROUND, rows, 3)[:, ring, 2])))

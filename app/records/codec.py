@@ -1,0 +1,324 @@
+"""The calf record: the compact, exact result of a fit, as a frozen dataclass and JSON.
+
+JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")::
+
+    schema_version, units, side ("left" | "right" | null)
+    side_inference {side, confidence, source ("given" | "body" | "foot" | null)}
+    warnings  [sentences]: what the fit noticed about the scan (landmarks at its edge,
+              floor or pieces removed, side unknown)
+    surface   {degree_u, degree_v, knots_u, knots_v, control_points [nu][nv][3],
+               weights [nu][nv], periodic_u}
+    frame     4x4 matrix taking calf-frame mm to the scan's own coordinates and units
+              (so it includes the uniform scale 1/mm_per_unit)
+    scan      {units, format, n_points, anterior_cue, sole_mm}: sole_mm, when the foot is
+              in the scan, is the calf-frame z of its lowest point (the floor under a
+              standing person; heights above the floor are height_mm - sole_mm)
+    landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge,
+              height_tolerance_mm, confidence}}
+              (calf-frame z; B = 0).  circumference_mm is the perimeter of the section
+              (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
+              (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
+    layers    {heights_mm [7], feature_angles_deg [m]}
+    fit       {mode, layers, points_per_layer, sections, angles, error_index,
+               error_index_exact, error_index_diameter, error_index_exact_diameter,
+               max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
+               stage_seconds, per_layer, d_at_window_edge, surface_to_scan}
+              surface_to_scan: the other side of E - the surface sampled densely, each
+              sample's distance to the scan where the scan has data
+              (app.geometry.spline.skin_distance): median_mm, p99_mm, max_mm, coverage,
+              off_skin_share, worst_ring_share (of one ring, more than 3 mm off), ...
+
+The surface is stored in the standard open form (see :mod:`app.geometry.spline.nurbs`): u runs
+around the leg and is periodic but written unwrapped - the first ``degree_u`` control
+columns are repeated at the end, ``knots_u`` has nu + degree_u + 1 entries and the
+valid u domain is [knots_u[degree_u], knots_u[nu]]; v runs from B (layer 0) to D.
+Error indices are fractions: 0.0037 means 0.37%.
+
+Version 1 records (before tape girths, warnings and side inference) are still read as
+they are: their landmarks simply have no ``tape_girth_mm`` and no warnings.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit.pipeline import FitResult
+from app.geometry.spline.bounds import check_leg_tube, check_surface_cost
+from app.geometry.spline.nurbs import NurbsSurface, evaluate_grid
+
+SCHEMA_VERSION = 2
+READABLE_VERSIONS = (1, 2)
+#: bounds of an importable record: a calf in its own frame (B at the origin, z along
+#: the leg) lies within a few hundred mm of the origin; these leave room for a whole
+#: leg and refuse numbers that would make every export and measurement run away
+MAX_CONTROL_MM = 2000.0
+MAX_NET = 256
+#: the surface must close around the leg to this tolerance (mm)
+CLOSURE_TOL_MM = 1e-3
+
+
+@dataclass(frozen=True)
+class CalfRecord:
+    """A stored calf model (see the module docstring for the JSON form)."""
+
+    surface: NurbsSurface
+    frame: np.ndarray  # (4, 4) calf mm -> scan units
+    landmarks: dict  # name -> {"height_mm", "circumference_mm"}
+    side: str | None = None
+    layers: dict = field(default_factory=dict)
+    fit: dict = field(default_factory=dict)
+    scan: dict = field(default_factory=dict)
+    schema_version: int = SCHEMA_VERSION
+    warnings: tuple = ()
+    side_inference: dict | None = None
+
+    def to_dict(self) -> dict:
+        s = self.surface
+        extra = {}
+        if self.schema_version >= 2:
+            extra = {"warnings": list(self.warnings), "side_inference": self.side_inference}
+        return {
+            "schema_version": self.schema_version,
+            "units": "mm",
+            "side": self.side,
+            **extra,
+            "surface": {
+                "degree_u": s.degree_u,
+                "degree_v": s.degree_v,
+                "knots_u": s.knots_u.tolist(),
+                "knots_v": s.knots_v.tolist(),
+                "control_points": s.control_points.tolist(),
+                "weights": s.weights.tolist(),
+                "periodic_u": bool(s.periodic_u),
+            },
+            "frame": self.frame.tolist(),
+            "scan": self.scan,
+            "landmarks": self.landmarks,
+            "layers": self.layers,
+            "fit": self.fit,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> CalfRecord:
+        """Validate and build a record; raises FitFailure(INVALID_RECORD) naming the problem."""
+        return parse_record(data)
+
+
+def record_from_fit(result: FitResult, scan_format: str, scan_units: str, seconds: float | None = None) -> CalfRecord:
+    """Build the record of a fit."""
+    err = result.error
+    fit = {
+        "mode": result.options.mode,
+        "layers": int(result.layer_points.shape[0]),
+        "points_per_layer": int(result.layer_points.shape[1]),
+        "sections": int(len(result.sections.heights_mm)),
+        "angles": int(len(result.sections.angles_rad)),
+        "error_index": err.error_index,
+        "error_index_exact": err.error_index_exact,
+        "error_index_diameter": err.error_index_diameter,
+        "error_index_exact_diameter": err.error_index_exact_diameter,
+        "max_error_mm": err.max_error_mm,
+        "mean_error_mm": err.mean_error_mm,
+        "n_scan_points": result.n_scan_points,
+        "n_error_points": err.n_points,
+        "seconds": float(seconds if seconds is not None else sum(result.timings.values())),
+        "stage_seconds": {k: float(v) for k, v in result.timings.items()},
+        "per_layer": list(err.per_layer),
+        "d_at_window_edge": bool(result.landmarks.d_at_window_edge),
+    }
+    if result.skin is not None:
+        fit["surface_to_scan"] = result.skin.as_dict()
+    if result.lsq is not None:
+        fit["grid"] = {"along": result.lsq.grid.along, "around": result.lsq.grid.around}
+        fit["correction_rms_mm"] = list(result.lsq.rms_mm)
+    placement = result.placement
+    side_inference = {
+        "side": result.side,
+        "confidence": None if placement is None else placement.side_confidence,
+        "source": None if placement is None else placement.side_source,
+    }
+    return CalfRecord(
+        surface=result.surface,
+        frame=result.frame.matrix(),
+        landmarks=result.landmarks.as_dict(),
+        side=result.side,
+        warnings=tuple(result.warnings),
+        side_inference=side_inference,
+        layers={
+            "heights_mm": result.landmarks.layer_heights_mm.tolist(),
+            "feature_angles_deg": np.degrees(result.feature_angles_rad).tolist(),
+        },
+        fit=fit,
+        scan={
+            "units": scan_units,
+            "format": scan_format,
+            "n_points": result.n_scan_points,
+            "anterior_cue": result.frame.anterior_cue,
+            **({"sole_mm": result.sole_mm} if result.sole_mm is not None else {}),
+        },
+    )
+
+
+def _invalid(detail: str) -> FitFailure:
+    return FitFailure(FailureReason.INVALID_RECORD, detail)
+
+
+def _finite_array(value, name: str, ndim: int) -> np.ndarray:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise _invalid(f"{name} must be an array of numbers") from exc
+    if array.ndim != ndim:
+        raise _invalid(f"{name} must be {ndim}-dimensional, got shape {array.shape}")
+    if not np.isfinite(array).all():
+        raise _invalid(f"{name} contains NaN or infinite values")
+    return array
+
+
+def _check_closed_around(surface: NurbsSurface) -> None:
+    """The surface contract: a tube closed around the leg (u), whether written periodic
+    (``periodic_u``, repeated control columns) or clamped with equal first and last
+    columns.  The exports, girths and pressure maps join u's two ends; an open sheet
+    would get a seam across the leg.  Checked where it matters: the curves u = start
+    and u = end at 33 heights must coincide within :data:`CLOSURE_TOL_MM`."""
+    (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
+    ends = np.array([surface.knots_u[p], surface.knots_u[nu]])
+    v = np.linspace(surface.knots_v[q], surface.knots_v[nv], 33)
+    with np.errstate(all="ignore"):
+        points = evaluate_grid(surface, ends, v)
+    gap = float(np.linalg.norm(points[0] - points[1], axis=-1).max())
+    if not np.isfinite(gap) or gap > CLOSURE_TOL_MM:
+        raise _invalid(
+            f"the surface is not closed around the leg: its two u ends are up to {gap:.3g} mm apart. A calf record "
+            "is a tube: periodic_u with the first degree_u control columns repeated at the end, or a clamped u "
+            "whose first and last control columns coincide")
+
+
+def parse_importable(data: dict) -> CalfRecord:
+    """A record made elsewhere: :func:`parse_record`, and its surface must be a leg's
+    tube (:func:`app.geometry.spline.bounds.check_leg_tube`: no zero radius, no
+    self-overlap, height rising along v)."""
+    record = parse_record(data)
+    check_leg_tube(record.surface)
+    return record
+
+
+def parse_record(data: dict) -> CalfRecord:
+    """Validate a record dictionary (knots, shapes, weights, finiteness, the cost bounds of
+    :mod:`app.geometry.spline.bounds`) and build it."""
+    if not isinstance(data, dict):
+        raise _invalid("a record must be a JSON object")
+    version = data.get("schema_version")
+    if version not in READABLE_VERSIONS or isinstance(version, bool):
+        raise _invalid(f"schema_version must be one of {', '.join(map(str, READABLE_VERSIONS))}, got {version!r}")
+    if data.get("units", "mm") != "mm":
+        raise _invalid("units must be 'mm'")
+    surf = data.get("surface")
+    if not isinstance(surf, dict):
+        raise _invalid("surface is missing")
+    try:
+        p, q = int(surf["degree_u"]), int(surf["degree_v"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise _invalid("surface.degree_u and surface.degree_v must be integers") from exc
+    if not (1 <= p <= 5 and 1 <= q <= 5):
+        raise _invalid("degrees must be between 1 and 5")
+    ctrl = _finite_array(surf.get("control_points"), "surface.control_points", 3)
+    weights = _finite_array(surf.get("weights"), "surface.weights", 2)
+    knots_u = _finite_array(surf.get("knots_u"), "surface.knots_u", 1)
+    knots_v = _finite_array(surf.get("knots_v"), "surface.knots_v", 1)
+    nu, nv, dim = ctrl.shape
+    if dim != 3:
+        raise _invalid("control points must have 3 coordinates")
+    if nu > MAX_NET or nv > MAX_NET:
+        raise _invalid(f"the control net is {nu} x {nv}; at most {MAX_NET} x {MAX_NET} is accepted")
+    if np.abs(ctrl).max() > MAX_CONTROL_MM:
+        raise _invalid(
+            f"control points reach {np.abs(ctrl).max():.3g} mm from the calf frame's origin; a calf record's lie "
+            f"within {MAX_CONTROL_MM:g} mm (mm, in the calf frame: B at the origin, z along the leg)")
+    if nu <= p or nv <= q:
+        raise _invalid(f"need more than degree control points in each direction, got {nu} x {nv}")
+    if weights.shape != (nu, nv):
+        raise _invalid(f"weights must be {nu} x {nv} like the control net, got {weights.shape}")
+    if (weights <= 0).any():
+        raise _invalid("weights must be positive")
+    for name, knots, n, deg in (("knots_u", knots_u, nu, p), ("knots_v", knots_v, nv, q)):
+        if len(knots) != n + deg + 1:
+            raise _invalid(f"surface.{name} must have {n + deg + 1} entries (n + degree + 1), got {len(knots)}")
+        if np.any(np.diff(knots) < 0):
+            raise _invalid(f"surface.{name} must be non-decreasing")
+        if knots[n] <= knots[deg]:
+            raise _invalid(f"surface.{name} has an empty domain")
+    periodic = bool(surf.get("periodic_u", False))
+    if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
+        raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
+    surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    check_surface_cost(surface)  # before anything is evaluated
+    _check_closed_around(surface)
+    frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)
+    if frame.shape != (4, 4) or not np.allclose(frame[3], [0, 0, 0, 1]):
+        raise _invalid("frame must be a 4x4 homogeneous matrix with last row 0 0 0 1")
+    if abs(np.linalg.det(frame[:3, :3])) < 1e-12:
+        raise _invalid("frame is singular")
+    landmarks = data.get("landmarks") or {}
+    if not isinstance(landmarks, dict):
+        raise _invalid("landmarks must be an object")
+    clean_landmarks = {}
+    for name in LANDMARK_NAMES:
+        if name not in landmarks:
+            continue
+        entry = landmarks[name]
+        try:
+            h, c = float(entry["height_mm"]), float(entry["circumference_mm"])
+        except (KeyError, TypeError, ValueError) as exc:
+            raise _invalid(f"landmarks.{name} needs numeric height_mm and circumference_mm") from exc
+        if not (math.isfinite(h) and math.isfinite(c)) or c <= 0:
+            raise _invalid(f"landmarks.{name} must be finite with a positive circumference")
+        clean_landmarks[name] = {"height_mm": h, "circumference_mm": c}
+        if entry.get("tape_girth_mm") is not None:
+            try:
+                tape = float(entry["tape_girth_mm"])
+            except (TypeError, ValueError) as exc:
+                raise _invalid(f"landmarks.{name}.tape_girth_mm must be a number") from exc
+            if not math.isfinite(tape) or tape <= 0:
+                raise _invalid(f"landmarks.{name}.tape_girth_mm must be finite and positive")
+            clean_landmarks[name]["tape_girth_mm"] = tape
+        if "at_scan_edge" in entry:
+            clean_landmarks[name]["at_scan_edge"] = bool(entry["at_scan_edge"])
+        if entry.get("height_tolerance_mm") is not None:
+            try:
+                tolerance = float(entry["height_tolerance_mm"])
+            except (TypeError, ValueError) as exc:
+                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be a number") from exc
+            if not math.isfinite(tolerance) or tolerance < 0:
+                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be finite and not negative")
+            clean_landmarks[name]["height_tolerance_mm"] = tolerance
+        if entry.get("confidence") is not None:
+            if entry["confidence"] not in ("high", "medium", "low"):
+                raise _invalid(f"landmarks.{name}.confidence must be 'high', 'medium' or 'low'")
+            clean_landmarks[name]["confidence"] = entry["confidence"]
+    side = data.get("side")
+    if side not in (None, "left", "right"):
+        raise _invalid("side must be 'left', 'right' or null")
+    warnings = data.get("warnings") or []
+    if not isinstance(warnings, list) or not all(isinstance(w, str) for w in warnings):
+        raise _invalid("warnings must be a list of sentences")
+    side_inference = data.get("side_inference")
+    if side_inference is not None and not isinstance(side_inference, dict):
+        raise _invalid("side_inference must be an object or null")
+    return CalfRecord(
+        schema_version=int(version),
+        warnings=tuple(warnings),
+        side_inference=side_inference,
+        surface=surface,
+        frame=frame,
+        landmarks=clean_landmarks,
+        side=side,
+        layers=data.get("layers") or {},
+        fit=data.get("fit") or {},
+        scan=data.get("scan") or {},
+    )
