@@ -23,8 +23,8 @@ from app.db.repositories import JOB_FAILED, JOB_SUCCEEDED, JobRepository, ScanRe
 from app.errors import Unprocessable, from_fit_failure
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
-from app.geometry.measures.surface_girths import girths
 from app.geometry.measures.population import as_right_leg, distinct_net, girth_percentiles, population_of
+from app.geometry.measures.surface_girths import girths
 from app.geometry.spline.lsq import LsqGrid, surface_from_net
 from app.records.codec import SCHEMA_VERSION, CalfRecord, parse_record
 from app.services.fitting import DEFAULT_GRID, parse_options
