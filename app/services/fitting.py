@@ -15,6 +15,7 @@ import time
 
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.placement import LegPlacement
 from app.geometry.scan.reader import UNIT_SCALE_MM, load_scan
 from app.geometry.spline.lsq import LsqGrid
 from app.records.codec import record_from_fit
@@ -107,12 +108,13 @@ def set_priority(nice: int) -> None:
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
                        max_faces: int | None = None, nice: int = 0) -> dict:
     """Worker: read the scan and place its calf; raises FitFailure with the reason
-    (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement, JSON."""
+    (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement as the
+    JSON the job stores (the one place it is serialised; :func:`fit_scan_file` reads it)."""
     set_priority(nice)
     with worker_task():
         scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points,
                          max_faces=max_faces)
-        return check_scan(scan, fit_options(options))
+        return check_scan(scan, fit_options(options)).to_dict()
 
 
 def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None, nice: int = 0) -> dict:
@@ -126,7 +128,7 @@ def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | 
     with worker_task():
         scan = load_scan(path, file_type=file_format, units=options.get("units"))
         loaded = time.perf_counter()
-        result = fit_scan(scan, fit_options(options), placement)
+        result = fit_scan(scan, fit_options(options), LegPlacement.from_dict(placement) if placement else None)
         seconds = time.perf_counter() - started
         record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
     stages = {"load": loaded - started, **{k: float(v) for k, v in result.timings.items()}, "total": seconds}

@@ -27,7 +27,7 @@ def test_a_leg_in_inches_is_refused_naming_inches(units):
 
 def test_the_same_leg_with_units_in_is_placed_as_the_mm_leg():
     placement = check_scan(load_scan(leg_in_inches(), file_type="stl", units="in"))
-    assert 150 < placement["c_mm"] < 260
+    assert 150 < placement.c_mm < 260
 
 
 def test_no_adult_calf_in_another_unit_reads_as_plausible():
@@ -60,7 +60,7 @@ def test_a_body_in_centimetres_read_as_millimetres_is_refused_naming_centimetres
     length = float(np.ptp(scan.points_mm, axis=0).max())
     assert f"only {length:.0f} mm long" in detail and f"{10 * length:.0f} mm long" in detail
     placed = check_scan(load_scan(path, units="cm"), FitOptions(side="left"))
-    assert placed["side"] == "left"
+    assert placed.side == "left"
 
 
 def _ankle_height(leg: trimesh.Trimesh) -> float:

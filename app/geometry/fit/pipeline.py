@@ -182,17 +182,19 @@ def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
     return np.linspace(b, d, options.n_sections)
 
 
-def fit_scan(scan: Scan, options: FitOptions | None = None, placement: dict | None = None) -> FitResult:
+def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacement | None = None) -> FitResult:
     """Fit the paper's NURBS calf model to a scan (see module docstring).
 
     ``placement`` (from :func:`check_scan` on the same scan and options) skips the search
-    for the leg, its axis and its landmarks; the result is the same.
+    for the leg, its axis and its landmarks; the result is the same.  It crosses process
+    and storage boundaries as JSON (:meth:`LegPlacement.to_dict`), serialised by the
+    service layer only.
     """
     options = options or FitOptions()
     options.validate()
     started = time.perf_counter()
-    if placement:
-        leg = replace_leg(scan, LegPlacement.from_dict(placement))
+    if placement is not None:
+        leg = replace_leg(scan, placement)
     else:
         leg = place_leg(scan, options.side)
     placed = time.perf_counter()
@@ -375,11 +377,11 @@ def fit_calf(
     )
 
 
-def check_scan(scan: Scan, options: FitOptions | None = None) -> dict:
+def check_scan(scan: Scan, options: FitOptions | None = None) -> LegPlacement:
     """Quick acceptance test of a scan: the options are valid and the calf can be placed
     (the leg found, B, C and D present).  Raises FitFailure with the reason otherwise;
-    returns the placement (:meth:`LegPlacement.to_dict`), which :func:`fit_scan` can reuse.
+    returns the placement, which :func:`fit_scan` reuses (one placement per upload).
     Costs the calf-frame stage of a fit."""
     options = options or FitOptions()
     options.validate()
-    return place_leg(scan, options.side).placement.to_dict()
+    return place_leg(scan, options.side).placement
