@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -20,6 +22,35 @@ def make_settings(data_dir: Path, **overrides) -> Settings:
     return Settings(data_dir=data_dir, database_url=f"sqlite:///{data_dir / 'calf.db'}", workers=2, **overrides)
 
 
+@contextlib.contextmanager
+def serve(data_dir: Path, **overrides) -> Iterator[TestClient]:
+    """The real app on ``data_dir``'s SQLite database, migrated with Alembic first, for
+    the with-block (its lifespan - runner, pools - starts and stops with it).  The one
+    way the tests build a service: ``overrides`` are Settings fields."""
+    with serve_settings(make_settings(data_dir, **overrides)) as client:
+        yield client
+
+
+@contextlib.contextmanager
+def serve_settings(settings: Settings) -> Iterator[TestClient]:
+    """:func:`serve` for settings already made (a test that writes to the database -
+    keys, jobs - before the service starts)."""
+    upgrade_to_head(settings.resolved_database_url)
+    with TestClient(create_app(settings)) as client:
+        yield client
+
+
+@pytest.fixture
+def service_client(tmp_path):
+    """Factory: ``service_client(**settings)`` gives a client of a fresh service in the
+    test's own temporary folder (``data_dir=`` to share one), shut at the test's end."""
+    with contextlib.ExitStack() as stack:
+        def make(data_dir: Path | None = None, **overrides) -> TestClient:
+            return stack.enter_context(serve(data_dir or tmp_path, **overrides))
+
+        yield make
+
+
 @pytest.fixture(scope="module")
 def data_dir(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("calf-data")
@@ -27,9 +58,7 @@ def data_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def client(data_dir):
-    settings = make_settings(data_dir)
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as test_client:
+    with serve(data_dir) as test_client:
         yield test_client
 
 

@@ -8,10 +8,8 @@ import pytest
 import trimesh
 from fastapi.testclient import TestClient
 
-from app.db.migrate import upgrade_to_head
 from app.db.repositories import JobRepository, RecordRepository, ScanRepository
-from app.main import create_app
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import serve, wait_for_job
 from tests.conftest import REAL
 
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
@@ -21,9 +19,7 @@ LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
 def small_limit_client(tmp_path_factory):
     """A service that accepts at most 1 MiB, with one good record already stored."""
     data_dir = tmp_path_factory.mktemp("limited")
-    settings = make_settings(data_dir, max_upload_mb=1.0)
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as client:
+    with serve(data_dir, max_upload_mb=1.0) as client:
         leg = trimesh.load(REAL / "bodyparts3d_right_leg.stl")
         small = leg.export(file_type="ply")  # binary PLY of the leg: < 1 MiB
         assert len(small) < 1024 * 1024

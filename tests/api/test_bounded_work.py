@@ -9,15 +9,13 @@ import subprocess
 import time
 
 import pytest
-from fastapi.testclient import TestClient
 
 from app.db.migrate import upgrade_to_head
 from app.db.session import session_factory
-from app.main import create_app
 from app.services.keys import KeyService
 from benchmarks.hostile_inputs import huge_coordinate_xyz, leg_in_inches, obj_with_2d_vertices, tube_record
 from benchmarks.served import BIN, free_port, start, stop, wait_ready
-from tests.api.conftest import make_settings
+from tests.api.conftest import make_settings, serve_settings
 from tests.conftest import REAL
 
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
@@ -34,7 +32,7 @@ def clinics(tmp_path_factory):
         keys = {name: KeyService(session).create(tenant, scopes).key for name, tenant, scopes in
                 (("a", "clinic-a", ("upload", "read", "design")), ("b", "clinic-b", ("upload", "read", "design")),
                  ("admin", "clinic-a", ("admin",)), ("operator", "operators", ("operator",)))}
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         yield client, {name: {"Authorization": f"Bearer {key}"} for name, key in keys.items()}
 
 

@@ -10,8 +10,7 @@ from pathlib import Path
 import pytest
 import trimesh
 
-from app.main import create_app
-from tests.api.conftest import wait_for_job
+from tests.api.conftest import serve, wait_for_job
 
 LEG = Path(__file__).resolve().parents[1] / "data" / "real" / "bodyparts3d_right_leg.stl"
 
@@ -114,14 +113,9 @@ def test_a_file_the_fit_cannot_read_gives_words_not_library_errors(client):
 
 
 def test_a_scan_with_more_triangles_than_the_limit_is_refused(tmp_path):
-    from fastapi.testclient import TestClient
 
-    from app.db.migrate import upgrade_to_head
-    from tests.api.conftest import make_settings
 
-    settings = make_settings(tmp_path, max_scan_faces=5000, max_scan_points=100_000)
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as small:
+    with serve(tmp_path, max_scan_faces=5000, max_scan_points=100_000) as small:
         response = small.post("/api/v1/scans", content=LEG.read_bytes(), headers={"Content-Type": "model/stl"})
         body = _problem(response, 422, "scan_too_large")
         assert "at most 5000" in body["detail"]
@@ -130,14 +124,9 @@ def test_a_scan_with_more_triangles_than_the_limit_is_refused(tmp_path):
 
 
 def test_cors_allows_only_the_configured_origins(tmp_path):
-    from fastapi.testclient import TestClient
 
-    from app.db.migrate import upgrade_to_head
-    from tests.api.conftest import make_settings
 
-    settings = make_settings(tmp_path, cors_origins=["https://portal.clinic.example"])
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as app_client:
+    with serve(tmp_path, cors_origins=["https://portal.clinic.example"]) as app_client:
         allowed = app_client.get("/api/v1/records", headers={"Origin": "https://portal.clinic.example"})
         assert allowed.headers["access-control-allow-origin"] == "https://portal.clinic.example"
         exposed = allowed.headers["access-control-expose-headers"].lower()

@@ -8,17 +8,15 @@ from datetime import timedelta
 from pathlib import Path
 
 import pytest
-from fastapi.testclient import TestClient
 from sqlalchemy import func, select, update
 
 from app.db.migrate import upgrade_to_head
 from app.db.models import Design, IdempotentRequest, Job, utcnow
 from app.db.session import session_factory
 from app.errors import Conflict
-from app.main import create_app
 from app.services.idempotency import PENDING_TAKEOVER, IdempotencyService, Replay, Reservation
 from app.services.keys import KeyService
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve_settings, wait_for_job
 from tests.conftest import REAL
 
 LEG = Path(__file__).resolve().parents[1] / "data" / "real" / "bodyparts3d_right_leg.stl"
@@ -31,7 +29,7 @@ def service(tmp_path_factory):
     sessions = session_factory(settings.resolved_database_url)
     with sessions() as session:
         keys = {t: KeyService(session).create(t, ("upload", "read", "design")).key for t in ("clinic-a", "clinic-b")}
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         yield client, sessions, keys
 
 

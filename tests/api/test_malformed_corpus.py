@@ -11,11 +11,9 @@ import sqlite3
 import uuid
 
 import pytest
-from fastapi.testclient import TestClient
 
 from app.db.migrate import upgrade_to_head
-from app.main import create_app
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve_settings, wait_for_job
 from tests.api.malformed_scans import FITS, malformed_scans
 from tests.conftest import REAL
 
@@ -43,7 +41,7 @@ def service(tmp_path_factory):
     data_dir = tmp_path_factory.mktemp("malformed")
     settings = make_settings(data_dir, max_scan_points=1_000_000, max_upload_mb=64.0)
     upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         stored = client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(),
                              params={"points": 8}, headers={"Content-Type": "model/stl"})
         record_id = wait_for_job(client, stored.headers["location"])["record_id"]

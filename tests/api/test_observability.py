@@ -10,14 +10,12 @@ import re
 from pathlib import Path
 
 import pytest
-from fastapi.testclient import TestClient
 
 from app.db.migrate import upgrade_to_head
 from app.db.session import session_factory
 from app.logs import configure_logging, redact
-from app.main import create_app
 from app.services.keys import KeyService
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve_settings, wait_for_job
 
 LEG = Path(__file__).resolve().parents[1] / "data" / "real" / "bodyparts3d_right_leg.stl"
 #: a file name as a clinic's export may write it: the patient's name
@@ -49,7 +47,7 @@ def captured_logs():
 
 def test_request_id_is_made_echoed_and_quoted_in_problems(tmp_path):
     settings, keys = _service(tmp_path)
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         made = client.get("/livez")
         assert re.fullmatch(r"[0-9a-f]{32}", made.headers["x-request-id"])
         echoed = client.get("/livez", headers={"X-Request-ID": "portal-42.a:b"})
@@ -66,7 +64,7 @@ def test_request_id_is_made_echoed_and_quoted_in_problems(tmp_path):
 def test_logs_are_json_with_the_request_id_and_no_key_or_patient_data(tmp_path, captured_logs):
     settings, keys = _service(tmp_path)
     clinic = {"Authorization": f"Bearer {keys['clinic']}"}
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         upload = client.post("/api/v1/scans", files={"file": (PATIENT_FILE, LEG.read_bytes(), "model/stl")},
                              data={"points": "8"}, headers={**clinic, "X-Request-ID": "upload-1"})
         assert upload.status_code == 202, upload.text
@@ -97,7 +95,7 @@ def test_a_key_in_a_log_message_keeps_only_its_prefix():
 def test_metrics_show_latency_checks_fits_and_outcomes_to_an_operator_only(tmp_path):
     settings, keys = _service(tmp_path)
     clinic = {"Authorization": f"Bearer {keys['clinic']}"}
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         upload = client.post("/api/v1/scans", content=LEG.read_bytes(), params={"points": 8},
                              headers={**clinic, "Content-Type": "model/stl"})
         assert upload.status_code == 202
@@ -135,7 +133,7 @@ def test_metrics_show_latency_checks_fits_and_outcomes_to_an_operator_only(tmp_p
 
 def test_a_key_over_its_rate_gets_429_with_retry_after_and_others_go_on(tmp_path):
     settings, keys = _service(tmp_path, rate_limit=6.0, rate_burst=3)  # one token per 10 s
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         clinic = {"Authorization": f"Bearer {keys['clinic']}"}
         codes = [client.get("/api/v1/records", headers=clinic).status_code for _ in range(4)]
         assert codes == [200, 200, 200, 429]
@@ -149,7 +147,7 @@ def test_a_key_over_its_rate_gets_429_with_retry_after_and_others_go_on(tmp_path
 
 def test_uploads_have_their_own_smaller_rate(tmp_path):
     settings, keys = _service(tmp_path, upload_rate_limit=1.0, upload_rate_burst=1)
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         clinic = {"Authorization": f"Bearer {keys['clinic']}", "Content-Type": "model/stl"}
         first = client.post("/api/v1/scans", content=b"solid x\nendsolid x\n", headers=clinic)
         second = client.post("/api/v1/scans", content=b"solid x\nendsolid x\n", headers=clinic)

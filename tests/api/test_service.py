@@ -12,9 +12,8 @@ from scipy.spatial import cKDTree
 
 from app.db.migrate import upgrade_to_head
 from app.geometry.scan.reader import load_scan
-from app.main import create_app
 from app.openapi_export import TARGET as OPENAPI_FILE
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve, serve_settings, wait_for_job
 from tests.conftest import REAL, REAL_LEGS
 
 MEDIA = {"stl": "model/stl", "glb": "model/gltf-binary"}
@@ -173,13 +172,11 @@ def test_every_route_lists_its_problems():
 
 
 def test_restart_keeps_every_record(tmp_path):
-    settings = make_settings(tmp_path)
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as first:
+    with serve(tmp_path) as first:
         response = upload(first, "bodyparts3d_right_leg.stl", None)
         job = wait_for_job(first, response.headers["location"])
         record = first.get(f"/api/v1/records/{job['record_id']}").json()
-    with TestClient(create_app(settings)) as second:
+    with serve(tmp_path) as second:
         again = second.get(f"/api/v1/records/{job['record_id']}").json()
         assert again == record
         assert second.get(response.headers["location"]).json()["status"] == "succeeded"
@@ -193,28 +190,26 @@ def test_jobs_left_running_by_a_crash_are_picked_up_at_start(tmp_path):
 
     settings = make_settings(tmp_path, run_jobs=False)  # a process that accepts but never runs jobs
     upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as crashed:
+    with serve_settings(settings) as crashed:
         response = upload(crashed, "bodyparts3d_right_leg.stl", None)
         location = response.headers["location"]
         assert crashed.get(location).json()["status"] == "queued"
     with session_factory(settings.resolved_database_url)() as session:  # it died mid-fit
         session.execute(update(Job).values(status="running", attempts=1))
         session.commit()
-    with TestClient(create_app(make_settings(tmp_path))) as restarted:
+    with serve(tmp_path) as restarted:
         job = wait_for_job(restarted, location)
         assert job["status"] == "succeeded" and job["attempts"] == 2
 
 
 def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
     """The upload check passed, but the stored scan vanished before the fit ran."""
-    settings = make_settings(tmp_path, run_jobs=False)
-    upgrade_to_head(settings.resolved_database_url)
-    with TestClient(create_app(settings)) as accepting:
+    with serve(tmp_path, run_jobs=False) as accepting:
         response = upload(accepting, "bodyparts3d_right_leg.stl", None)
         sha = response.json()["scan_sha256"]
     stored = tmp_path / "scans" / sha[:2] / sha
     stored.unlink()
-    with TestClient(create_app(make_settings(tmp_path))) as running:
+    with serve(tmp_path) as running:
         job = wait_for_job(running, response.headers["location"])
     assert job["status"] == "failed" and job["record_id"] is None
     assert job["error"]["code"] == "unreadable_file" and job["error"]["type"].endswith(":unreadable_file")

@@ -10,15 +10,13 @@ from datetime import UTC, datetime, timedelta
 from pathlib import Path
 
 import pytest
-from fastapi.testclient import TestClient
 
 from app.db.migrate import upgrade_to_head
 from app.db.models import ApiKey
 from app.db.session import session_factory
-from app.main import create_app
 from app.services.keys import KeyService
 from app.settings import Settings
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve_settings, wait_for_job
 
 LEG = Path(__file__).resolve().parents[1] / "data" / "real" / "bodyparts3d_right_leg.stl"
 ROOT = Path(__file__).resolve().parents[2]
@@ -35,7 +33,7 @@ def service(tmp_path_factory):
     settings = make_settings(tmp_path_factory.mktemp("tenants"), auth="required")
     upgrade_to_head(settings.resolved_database_url)
     keys = {"a": _key(settings, "clinic-a"), "b": _key(settings, "clinic-b")}
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         yield client, settings, keys
 
 

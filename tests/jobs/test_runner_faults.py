@@ -9,13 +9,11 @@ import time
 from datetime import timedelta
 from pathlib import Path
 
-from fastapi.testclient import TestClient
 from sqlalchemy import func, select, update
 
 from app.db.migrate import upgrade_to_head
 from app.db.models import Job, Record, utcnow
-from app.main import create_app
-from tests.api.conftest import make_settings, wait_for_job
+from tests.api.conftest import make_settings, serve_settings, wait_for_job
 from tests.conftest import REAL
 
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
@@ -61,7 +59,7 @@ def _wait_running(client, location, timeout=60.0) -> None:
 
 
 def test_a_killed_check_worker_is_replaced_and_later_uploads_work(tmp_path):
-    with TestClient(create_app(_settings(tmp_path))) as client:
+    with serve_settings(_settings(tmp_path)) as client:
         runner = client.app.state.runner
         client.post("/api/v1/scans", content=LEG, headers={"Content-Type": "model/stl"})  # the pool is up
         pids = runner.check_pool.pids()
@@ -78,7 +76,7 @@ def test_a_worker_killed_mid_fit_is_retried_and_succeeds_once(tmp_path):
     """The fit is an lsq 40 x 72 (about 3 s: the worker is surely still fitting when it
     is killed; a 0.3 s paper fit could end first once the pool's workers were started
     ahead of the first job)."""
-    with TestClient(create_app(_settings(tmp_path))) as client:
+    with serve_settings(_settings(tmp_path)) as client:
         runner = client.app.state.runner
         location = _upload(client, BODY, "model/gltf-binary", side="left", mode="lsq", grid="40x72")
         _wait_running(client, location)
@@ -91,7 +89,7 @@ def test_a_worker_killed_mid_fit_is_retried_and_succeeds_once(tmp_path):
 
 
 def test_a_job_over_its_time_limit_fails_its_process_is_killed_and_the_next_runs(tmp_path):
-    with TestClient(create_app(_settings(tmp_path, job_timeout_s=0.05))) as client:
+    with serve_settings(_settings(tmp_path, job_timeout_s=0.05)) as client:
         runner = client.app.state.runner
         first = _upload(client, points=8)
         _wait_running(client, first)
@@ -108,10 +106,10 @@ def test_a_job_over_its_time_limit_fails_its_process_is_killed_and_the_next_runs
 
 def test_a_second_runner_started_mid_fit_takes_nothing(tmp_path):
     settings = _settings(tmp_path)
-    with TestClient(create_app(settings)) as first:
+    with serve_settings(settings) as first:
         location = _upload(first, BODY, "model/gltf-binary", side="right")
         _wait_running(first, location)
-        with TestClient(create_app(settings)) as second:  # a second `calf-nurbs serve` on the same data
+        with serve_settings(settings) as second:  # a second `calf-nurbs serve` on the same data
             job = wait_for_job(first, location, timeout=180)
             second.app.state.runner.notify()
             time.sleep(1.0)
@@ -123,7 +121,7 @@ def test_a_second_runner_started_mid_fit_takes_nothing(tmp_path):
 def _orphan(settings, attempts: int) -> str:
     """A job left running by a runner that died: accepted by an API that runs no jobs,
     then marked running under a lease that has expired."""
-    with TestClient(create_app(settings.model_copy(update={"run_jobs": False}))) as api:
+    with serve_settings(settings.model_copy(update={"run_jobs": False})) as api:
         location = _upload(api, points=8)
         job_id = location.rsplit("/", 1)[1]
         with api.app.state.sessions() as session, session.begin():
@@ -136,7 +134,7 @@ def _orphan(settings, attempts: int) -> str:
 def test_a_job_whose_runner_died_is_taken_over_when_its_lease_expires(tmp_path):
     settings = _settings(tmp_path)
     location = _orphan(settings, attempts=1)
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         job = wait_for_job(client, location)
     assert job["status"] == "succeeded" and job["attempts"] == 2
 
@@ -144,14 +142,14 @@ def test_a_job_whose_runner_died_is_taken_over_when_its_lease_expires(tmp_path):
 def test_a_job_interrupted_too_often_fails_with_the_reason(tmp_path):
     settings = _settings(tmp_path, job_max_attempts=3)
     location = _orphan(settings, attempts=3)
-    with TestClient(create_app(settings)) as client:
+    with serve_settings(settings) as client:
         job = wait_for_job(client, location)
     assert job["status"] == "failed" and job["error"]["code"] == "worker_crashed"
     assert "interrupted 3 times" in job["error"]["detail"]
 
 
 def test_readyz_reports_a_runner_that_cannot_run_jobs(tmp_path):
-    with TestClient(create_app(_settings(tmp_path))) as client:
+    with serve_settings(_settings(tmp_path)) as client:
         assert client.get("/readyz").status_code == 200
         client.app.state.runner._dispatcher.cancel()
         time.sleep(0.2)
@@ -176,13 +174,13 @@ def test_temporary_uploads_left_by_a_crash_are_removed_at_start_up(tmp_path):
         path.write_bytes(b"part of a scan")
     two_hours_ago = time.time() - 7200
     os.utime(old, (two_hours_ago, two_hours_ago))
-    with TestClient(create_app(settings)):
+    with serve_settings(settings):
         assert not crashed.exists() and not old.exists()
         assert live.exists() and elsewhere.exists()
 
 
 def test_re_uploading_the_same_bytes_restores_a_missing_scan_file(tmp_path):
-    with TestClient(create_app(_settings(tmp_path))) as client:
+    with serve_settings(_settings(tmp_path)) as client:
         job = wait_for_job(client, _upload(client, points=8))
         stored = client.app.state.store.path_for(job["scan_sha256"])
         stored.unlink()
@@ -191,7 +189,7 @@ def test_re_uploading_the_same_bytes_restores_a_missing_scan_file(tmp_path):
 
 
 def test_the_runner_leaves_no_worker_behind_on_stop(tmp_path):
-    with TestClient(create_app(_settings(tmp_path))) as client:
+    with serve_settings(_settings(tmp_path)) as client:
         wait_for_job(client, _upload(client, points=8))
         pids = client.app.state.runner.fit_pool.pids() + client.app.state.runner.check_pool.pids()
     deadline = time.monotonic() + 10
