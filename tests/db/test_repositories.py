@@ -75,3 +75,35 @@ def test_a_clinic_at_its_running_bound_leaves_the_worker_to_others(sessions):
         b_jobs = _queue(session, "clinic-b", 1)
         session.commit()
         assert system.claim_next("runner", utcnow() + timedelta(seconds=60), per_tenant=1).id == b_jobs[0]
+
+
+def test_records_are_owned_paged_newest_first_and_deleted_with_their_designs(sessions):
+    """A clinic sees only its records, newest first in pages whose cursor continues
+    where the last ended (ties of created_at broken by id); deleting a record deletes
+    the designs made from it and keeps the other clinic's."""
+    from app.db.models import Design
+    from app.db.repositories import DesignRepository, RecordRepository
+
+    with sessions() as session:
+        for tenant in ("clinic-a", "clinic-b"):
+            session.add(Tenant(id=tenant, name=tenant))
+        session.flush()
+        mine = RecordRepository(session, "clinic-a")
+        made = [mine.add({"side": "left" if i % 2 else "right", "fit": {"error_index": 0.01 * i}}, f"etag{i}", "fit", None)
+                for i in range(5)]
+        other = RecordRepository(session, "clinic-b").add({"side": "left"}, "etag-b", "fit", None)
+        DesignRepository(session, "clinic-a").add(made[0].id, {}, {}, "d0")
+        DesignRepository(session, "clinic-b").add(other.id, {}, {}, "d1")
+        session.commit()
+        assert mine.get(other.id) is None and RecordRepository(session, "clinic-b").get(other.id) is not None
+        first = mine.page(3, None)
+        rest = mine.page(3, (first[-1].created_at, first[-1].id))
+        order = [r.id for r in first + rest]
+        assert sorted(order) == sorted(r.id for r in made) and len(set(order)) == 5
+        keys = [(r.created_at, r.id) for r in first + rest]
+        assert keys == sorted(keys, reverse=True)
+        assert {r.side for r in mine.page(10, None, side="left")} == {"left"}
+        mine.delete(made[0])
+        session.commit()
+        assert mine.count() == 4 + 1  # count is the whole table: clinic b's record stays
+        assert session.query(Design).count() == 1
