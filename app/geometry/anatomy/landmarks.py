@@ -87,6 +87,10 @@ NARROWER_BELOW = 0.03
 #: only the calf, at most ~1.25 x the knee waist
 FOOT_RATIO = 1.3
 
+#: two calf candidates whose B and D lie within this of each other bracket one calf
+#: (B and D are each found to a few mm; two calves of one scan lie 300+ mm apart)
+SAME_WAIST_MM = 10.0
+
 #: the calf maximum's section is nearly round: calf sections have an elongation
 #: (:meth:`app.geometry.sections.PolarSections.elongations`, sqrt(a/b) for an a x b
 #: ellipse) of 1.01-1.10 on the real and generated legs (width to depth 1.0-1.2, as
@@ -407,6 +411,12 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 valid.append((int(ic), outcome))
         if valid:
             index, best = valid[0]
+            # C is the calf maximum: of the candidates that bracket the same calf (the
+            # same ankle B and knee waist D, to SAME_WAIST_MM), the largest girth - a
+            # bump of a sparse cloud's noisy profile below the real maximum is not C
+            same_calf = [(i, o) for i, o in valid if abs(o.b_mm - best.b_mm) <= SAME_WAIST_MM
+                         and abs(o.d_mm - best.d_mm) <= SAME_WAIST_MM]
+            index, best = max(same_calf, key=lambda item: item[1].girth_c_mm)
             # candidates less than 100 mm apart whose girths between them stay within 2%
             # (a dip between peaks, a rise between shoulders) are one crown: the higher wins
             for other_index, other in valid[1:]:

@@ -303,6 +303,18 @@ def _section_centre_line(heights: np.ndarray, girth: np.ndarray, sections: Polar
     return direction if direction[2] > 0 else -direction
 
 
+def _height_on(new_axis: np.ndarray, basis: np.ndarray, heights: np.ndarray, sections: PolarSections,
+               z_mm: float) -> float:
+    """Height along ``new_axis`` (both about the same centre, mm) of the centroid of the
+    section at ``z_mm`` of the profile along ``basis``'s z (its rows: x, y, z axes);
+    the point on the old axis when that section has no centroid."""
+    row = int(np.clip(np.searchsorted(heights, z_mm), 0, len(heights) - 1))
+    centroid = sections.centroids_mm[row]
+    xy = centroid if np.isfinite(centroid).all() else np.zeros(2)
+    point = basis.T @ np.array([xy[0], xy[1], z_mm])
+    return float(point @ new_axis)
+
+
 def _refine(oriented, points, faces, samples, weights, half_spaces):
     """The calf's long axis (:func:`_section_centre_line`; the paper's section 2.1
     uses PCA of the calf between B and D), the landmarks found again along it, at most
@@ -329,12 +341,16 @@ def _refine(oriented, points, faces, samples, weights, half_spaces):
             basis = cf.perpendicular_basis(axis, basis[1])
             local = (points - centre) @ basis.T
             break
+        # the calf maximum's section centre, carried into the new axis's heights: the
+        # hint for finding C again (a tilt moves a point off the old axis in height by
+        # its offset x sin(tilt): tens of mm for a foot-heavy first axis)
+        hint = _height_on(new_axis, basis, heights, sections, feats.c_mm)
         axis = new_axis
         basis = cf.perpendicular_basis(axis, basis[1])
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
-        feats = find_feature_heights(heights, girth, feats.c_mm, sections.elongations())
+        feats = find_feature_heights(heights, girth, hint, sections.elongations())
     return centre, local, heights, girth, sections, feats, axis, basis
 
 
