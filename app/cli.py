@@ -256,6 +256,9 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from app.geometry.garment.design import DEFAULT_CLASS, DEFAULT_HOT_SPOT_MMHG, DEFAULT_STANDARD, DEFAULT_STIFFNESS_N_PER_CM
+    from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
+
     parser = argparse.ArgumentParser(prog="calf-nurbs", description="Fit an exact NURBS model to a 3D scan of a leg, "
                                      "measure it and design a graduated compression stocking from it.",
                                      epilog=_epilog(), formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -306,12 +309,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     design = sub.add_parser("design", help="design a graduated compression stocking from a record")
     design.add_argument("record")
-    design.add_argument("--class", dest="compression_class", default="II")
-    design.add_argument("--standard", default="RAL", choices=["RAL", "BS", "AFNOR"])
-    design.add_argument("--stiffness", type=float, default=10.0, help="fabric stiffness K, N/cm per unit strain (10)")
-    design.add_argument("--max-strain", type=float, default=1.0, help="largest strain of a linear fabric (1.0 = 100%%)")
+    design.add_argument("--class", dest="compression_class", default=DEFAULT_CLASS)
+    design.add_argument("--standard", default=DEFAULT_STANDARD, choices=["RAL", "BS", "AFNOR"])
+    design.add_argument("--stiffness", type=float, default=DEFAULT_STIFFNESS_N_PER_CM,
+                        help=f"fabric stiffness K, N/cm per unit strain ({DEFAULT_STIFFNESS_N_PER_CM:g})")
+    design.add_argument("--max-strain", type=float, default=DEFAULT_MAX_STRAIN,
+                        help="largest strain of a linear fabric (1.0 = 100%%)")
     design.add_argument("--table", help="CSV of the fabric's measured strain,tension_N_per_cm (instead of --stiffness)")
-    design.add_argument("--hot-spot-limit", type=float, default=60.0, help="local pressure hot-spot limit, mmHg (60)")
+    design.add_argument("--hot-spot-limit", type=float, default=DEFAULT_HOT_SPOT_MMHG,
+                        help=f"local pressure hot-spot limit, mmHg ({DEFAULT_HOT_SPOT_MMHG:g})")
     design.add_argument("--json", action="store_true", help="print the whole design as JSON")
     design.set_defaults(func=_cmd_design)
     return parser

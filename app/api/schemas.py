@@ -7,6 +7,14 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from app.geometry.garment.design import (
+    DEFAULT_CLASS,
+    DEFAULT_HOT_SPOT_MMHG,
+    DEFAULT_RESOLUTION_MM,
+    DEFAULT_STANDARD,
+    DEFAULT_STEP_MM,
+)
+from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
 from app.records.codec import MAX_CONTROL_MM, MAX_NET
 
 #: a control point's coordinate, mm (calf frame); a weight; a knot
@@ -176,7 +184,8 @@ class FabricIn(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
     stiffness_n_per_cm: float | None = Field(None, gt=0, le=1000,
                                              description="linear fabric: tension per unit width per unit strain, N/cm")
-    max_strain: float = Field(1.0, gt=0, le=5, description="linear fabric: the largest strain it may be designed at")
+    max_strain: float = Field(DEFAULT_MAX_STRAIN, gt=0, le=5,
+                              description="linear fabric: the largest strain it may be designed at")
     table: list[FabricRow] | None = Field(
         None, min_length=2, max_length=MAX_FABRIC_ROWS,
         description=f"measured fabric: [[strain, tension N/cm], ...], strictly increasing; 2-{MAX_FABRIC_ROWS} rows")
@@ -194,15 +203,17 @@ class DesignRequest(BaseModel):
     """A stocking design: a class (graded by the gradient table) or explicit targets."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
-    standard: str = Field("RAL", max_length=16, description="RAL (RAL-GZ 387), BS (BS 6612) or AFNOR (NF G30-102)")
-    compression_class: str | None = Field("II", max_length=8, description="e.g. I, II, III, IV (RAL); 1-3 (BS); 1-4 (AFNOR)")
+    standard: str = Field(DEFAULT_STANDARD, max_length=16, description="RAL (RAL-GZ 387), BS (BS 6612) or AFNOR (NF G30-102)")
+    compression_class: str | None = Field(DEFAULT_CLASS, max_length=8, description="e.g. I, II, III, IV (RAL); 1-3 (BS); 1-4 (AFNOR)")
     targets_mmHg: dict[Literal["B", "B1", "C", "D"], Annotated[float, Field(gt=0, le=100)]] | None = Field(
         None, description="explicit mean pressures (0-100 mmHg) at B, B1, C, D; override the class")
     fabric: FabricIn
-    hot_spot_limit_mmHg: float = Field(60.0, gt=0, le=300, description="local pressure above this is reported as a hot spot")
-    step_mm: float = Field(5.0, ge=1, le=50, description="knitting specification every step_mm (1-50) from B to D "
+    hot_spot_limit_mmHg: float = Field(DEFAULT_HOT_SPOT_MMHG, gt=0, le=300,
+                                       description="local pressure above this is reported as a hot spot")
+    step_mm: float = Field(DEFAULT_STEP_MM, ge=1, le=50, description="knitting specification every step_mm (1-50) from B to D "
                            "(and at the landmarks)")
-    resolution_mm: float = Field(1.0, ge=0.01, le=10, description="resolution of the relaxed circumferences L0 (0.01-10 mm)")
+    resolution_mm: float = Field(DEFAULT_RESOLUTION_MM, ge=0.01, le=10,
+                                 description="resolution of the relaxed circumferences L0 (0.01-10 mm)")
 
 
 class DesignOut(BaseModel):

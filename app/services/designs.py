@@ -19,7 +19,7 @@ from app.db.repositories import DesignRepository
 from app.errors import NotFound, from_fit_failure
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.design import DesignInputs, design_stocking
-from app.geometry.garment.fabric import Fabric
+from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN, Fabric
 from app.geometry.garment.pressure import PA_PER_MMHG, pressure_map
 from app.records.codec import CalfRecord
 from app.records.meshes import apply_frame, surface_grid_faces
@@ -38,21 +38,22 @@ def fabric_from_dict(fabric: dict) -> Fabric:
             raise FitFailure(FailureReason.INVALID_FABRIC, "fabric.table must be a list of [strain, tension_N_per_cm] rows")
         return Fabric.table([r[0] for r in rows], [r[1] for r in rows])
     if fabric.get("stiffness_n_per_cm") is not None:
-        return Fabric.linear(float(fabric["stiffness_n_per_cm"]), float(fabric.get("max_strain", 1.0)))
+        return Fabric.linear(float(fabric["stiffness_n_per_cm"]), float(fabric.get("max_strain", DEFAULT_MAX_STRAIN)))
     raise FitFailure(FailureReason.INVALID_FABRIC, "give the fabric as stiffness_n_per_cm or as a tension-strain table")
 
 
 def inputs_from_request(data: dict) -> DesignInputs:
     """Validated design inputs from a request body (see DesignRequest in app.api.schemas)."""
     fabric = fabric_from_dict(data.get("fabric") or {})
+    defaults = DesignInputs()
     return DesignInputs(
-        standard=str(data.get("standard", "RAL")),
-        compression_class=data.get("compression_class", "II"),
+        standard=str(data.get("standard", defaults.standard)),
+        compression_class=data.get("compression_class", defaults.compression_class),
         targets_mmhg=data.get("targets_mmHg"),
         fabric=fabric,
-        hot_spot_limit_mmhg=float(data.get("hot_spot_limit_mmHg", 60.0)),
-        step_mm=float(data.get("step_mm", 5.0)),
-        resolution_mm=float(data.get("resolution_mm", 1.0)),
+        hot_spot_limit_mmhg=float(data.get("hot_spot_limit_mmHg", defaults.hot_spot_limit_mmhg)),
+        step_mm=float(data.get("step_mm", defaults.step_mm)),
+        resolution_mm=float(data.get("resolution_mm", defaults.resolution_mm)),
     )
 
 

@@ -67,16 +67,26 @@ from app.geometry.spline.nurbs import NurbsSurface
 #: 60 mmHg "very strong"; local pressure over tendons and bony prominences beyond that is
 #: where the skin-damage risk the paper warns about begins.  Configurable per design.
 DEFAULT_HOT_SPOT_MMHG = 60.0
+#: the one set of design defaults (the HTTP schema, the CLI and the service read these):
+#: RAL-GZ 387 class II (23-32 mmHg at B, the class most prescribed for venous disease),
+#: a linear fabric of K = 10 N/cm per unit strain, the knitting specification every 5 mm
+#: with the relaxed circumferences to 1 mm
+DEFAULT_STANDARD = "RAL"
+DEFAULT_CLASS = "II"
+DEFAULT_STIFFNESS_N_PER_CM = 10.0
+DEFAULT_STEP_MM = 5.0
+DEFAULT_RESOLUTION_MM = 1.0
+
 
 @dataclass(frozen=True)
 class DesignInputs:
-    standard: str = "RAL"
-    compression_class: str | None = "II"
+    standard: str = DEFAULT_STANDARD
+    compression_class: str | None = DEFAULT_CLASS
     targets_mmhg: dict | None = None  # explicit B, B1, C, D; overrides the class
-    fabric: Fabric = field(default_factory=lambda: Fabric.linear(10.0))
+    fabric: Fabric = field(default_factory=lambda: Fabric.linear(DEFAULT_STIFFNESS_N_PER_CM))
     hot_spot_limit_mmhg: float = DEFAULT_HOT_SPOT_MMHG
-    step_mm: float = 5.0
-    resolution_mm: float = 1.0
+    step_mm: float = DEFAULT_STEP_MM
+    resolution_mm: float = DEFAULT_RESOLUTION_MM
     n_around: int = 360
 
 
