@@ -78,6 +78,14 @@ def find_spans(knots: np.ndarray, degree: int, n_ctrl: int, u: np.ndarray) -> np
     return np.clip(spans, degree, n_ctrl - 1)
 
 
+def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
+    """numerator / denominator, 0 where the denominator is 0: the knot differences of
+    A2.3 vanish only at a parameter outside its span's support (a repeated knot), where
+    the term they divide is itself 0 (The NURBS Book's 0/0 := 0 convention, eq. 2.5)."""
+    return np.divide(numerator, denominator, out=np.zeros(np.broadcast(numerator, denominator).shape),
+                     where=denominator != 0)
+
+
 def basis_function_derivatives(
     knots: np.ndarray, degree: int, spans: np.ndarray, u: np.ndarray, order: int
 ) -> np.ndarray:
@@ -100,7 +108,7 @@ def basis_function_derivatives(
         saved = np.zeros(n_pts)
         for r in range(j):
             ndu[j, r] = right[r + 1] + left[j - r]
-            temp = ndu[r, j - 1] / ndu[j, r]
+            temp = _ratio(ndu[r, j - 1], ndu[j, r])
             ndu[r, j] = saved + right[r + 1] * temp
             saved = left[j - r] * temp
         ndu[j, j] = saved
@@ -114,15 +122,15 @@ def basis_function_derivatives(
             d = np.zeros(n_pts)
             rk, pk = r - k, p - k
             if r >= k:
-                a[s2, 0] = a[s1, 0] / ndu[pk + 1, rk]
+                a[s2, 0] = _ratio(a[s1, 0], ndu[pk + 1, rk])
                 d = a[s2, 0] * ndu[rk, pk]
             j1 = 1 if rk >= -1 else -rk
             j2 = k - 1 if r - 1 <= pk else p - r
             for j in range(j1, j2 + 1):
-                a[s2, j] = (a[s1, j] - a[s1, j - 1]) / ndu[pk + 1, rk + j]
+                a[s2, j] = _ratio(a[s1, j] - a[s1, j - 1], ndu[pk + 1, rk + j])
                 d = d + a[s2, j] * ndu[rk + j, pk]
             if r <= pk:
-                a[s2, k] = -a[s1, k - 1] / ndu[pk + 1, r]
+                a[s2, k] = _ratio(-a[s1, k - 1], ndu[pk + 1, r])
                 d = d + a[s2, k] * ndu[r, pk]
             ders[k, r] = d
             s1, s2 = s2, s1
