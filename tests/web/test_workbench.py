@@ -248,3 +248,32 @@ def test_two_designs_side_by_side_and_two_records_compared(served, page):
     assert canvas_has_a_picture(page, "#difference-viewer")
     page.screenshot(path=str(shots / "compare.png"))
     assert page.console_errors == []
+
+
+def test_explicit_targets_and_the_classes_of_each_standard(served, page):
+    """The design form: the classes offered follow the standard (BS 1-3, AFNOR 1-4, RAL
+    I-IV), the explicit target inputs are real inputs with their labels, and a design to
+    explicit targets is made."""
+    base, key = served
+    sign_in(page, base, key)
+    page.get_by_role("link", name="Upload").click()
+    page.set_input_files("#scan-file", str(REAL / "bodyparts3d_right_leg.stl"))
+    page.get_by_role("button", name="Upload and fit").click()
+    page.wait_for_url("**/#/records/*", timeout=120_000)
+    page.locator("#measurement-sheet").wait_for()
+    page.get_by_role("link", name="New design").click()
+    classes = page.locator("#compression-class option")
+    assert classes.all_inner_texts() == ["I", "II", "III", "IV"]
+    page.select_option("#standard", "BS")
+    assert classes.all_inner_texts() == ["1", "2", "3"]
+    page.select_option("#standard", "AFNOR")
+    assert classes.all_inner_texts() == ["1", "2", "3", "4"]
+    page.select_option("#standard", "RAL")
+    assert "[object" not in page.locator("form").inner_text()
+    page.select_option("#target-kind", "explicit")
+    for name, mmhg in (("B", "30"), ("B1", "25"), ("C", "20"), ("D", "14")):
+        page.get_by_label(f"Target at {name}, mmHg").fill(mmhg)
+    page.get_by_role("button", name="Design the stocking").click()
+    page.wait_for_url("**/#/designs/*", timeout=60_000)
+    page.locator("#design-verdict").wait_for()
+    assert page.console_errors == []

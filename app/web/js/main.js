@@ -19,7 +19,7 @@ function h(tag, attrs = {}, ...children) {
     else if (k === 'text') node.textContent = v;
     else node.setAttribute(k, v === true ? '' : v);
   }
-  for (const child of children.flat()) if (child != null) node.append(child.nodeType ? child : document.createTextNode(child));
+  for (const child of children.flat(Infinity)) if (child != null) node.append(child.nodeType ? child : document.createTextNode(child));
   return node;
 }
 const mm = (x, d = 1) => (Number.isFinite(x) ? x.toFixed(d) : '–');
@@ -294,8 +294,15 @@ async function designForm(recordId) {
   const options = (id, values) => h('select', { id }, values.map(([v, t]) => h('option', { value: v, text: t })));
   const kind = options('target-kind', [['class', 'a compression class'], ['explicit', 'explicit targets']]);
   const standard = options('standard', [['RAL', 'RAL-GZ 387'], ['BS', 'BS 6612'], ['AFNOR', 'NF G30-102']]);
-  const cls = options('compression-class', [['I', 'I'], ['II', 'II'], ['III', 'III'], ['IV', 'IV'], ['1', '1'], ['2', '2'], ['3', '3'], ['4', '4']]);
+  // the classes of each standard (app/geometry/garment/standards.py COMPRESSION_CLASSES)
+  const classesOf = { RAL: ['I', 'II', 'III', 'IV'], BS: ['1', '2', '3'], AFNOR: ['1', '2', '3', '4'] };
+  const cls = options('compression-class', classesOf.RAL.map((c) => [c, c]));
   cls.value = 'II';
+  standard.addEventListener('change', () => {
+    const keep = cls.selectedIndex;
+    cls.replaceChildren(...classesOf[standard.value].map((c) => h('option', { value: c, text: c })));
+    cls.selectedIndex = Math.min(Math.max(keep, 0), cls.options.length - 1);
+  });
   const targets = LANDMARKS.map((n) => [h('label', { for: `target-${n}`, text: `Target at ${n}, mmHg` }), h('input', { id: `target-${n}`, type: 'number', step: '0.5', min: 0 })]);
   const fabricKind = options('fabric-kind', [['linear', 'linear: stiffness K'], ['table', 'measured: tension-strain table']]);
   const stiffness = h('input', { id: 'stiffness', type: 'number', step: '0.1', min: 0.1, value: 10 });
