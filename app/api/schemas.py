@@ -225,7 +225,11 @@ class DesignOut(BaseModel):
     landmarks: dict
     ratios: dict
     checks: list
-    passed: bool
+    passed: bool = Field(description="every normative check passes (advisory checks and hot spots aside: see verdict)")
+    verdict: Literal["pass", "review", "fail"] | None = Field(
+        None, description="fail: a normative check fails; review: an advisory check fails or a hot spot exceeds the "
+        "limit; pass: every check passes and no hot spot (designs made before 2026-12 have none)")
+    verdict_reasons: list[str] | None = Field(None, description="why the verdict is not pass, a sentence each")
     hot_spots: list
     knitting_spec: list
     links: dict[str, str]

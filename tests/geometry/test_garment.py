@@ -89,3 +89,18 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
     sides = design["landmarks"]["B"]["sides_mmHg"]
     assert max(sides.values()) > 1.2 * min(sides.values())
     assert all(v >= 0 for v in sides.values())
+
+
+def test_the_verdict_is_pass_only_without_failed_checks_and_hot_spots():
+    """fail on a normative check, review on an advisory check or a hot spot (with where
+    it is), pass only when nothing is left to look at."""
+    from app.geometry.garment.design import design_verdict
+
+    normative = {"name": "B in RAL class II", "pass": True, "normative": True}
+    advisory = {"name": "C 50-80% of B", "pass": True, "normative": False}
+    spot = {"peak_mmHg": 63.8, "height_mm": 120.0, "from_height_mm": 110.0, "to_height_mm": 131.0, "side": "anterior"}
+    assert design_verdict([normative, advisory], [], 60.0) == {"verdict": "pass", "verdict_reasons": []}
+    review = design_verdict([normative, advisory], [spot], 60.0)
+    assert review["verdict"] == "review" and "63.8 mmHg above the 60 mmHg limit at 120 mm above B" in review["verdict_reasons"][0]
+    assert design_verdict([normative, {**advisory, "pass": False}], [], 60.0)["verdict"] == "review"
+    assert design_verdict([{**normative, "pass": False}, advisory], [spot], 60.0)["verdict"] == "fail"

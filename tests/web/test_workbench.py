@@ -146,6 +146,9 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     assert canvas_has_a_picture(page, "#pressure-viewer")
     hot = page.locator("#hot-spots")
     assert hot.locator("tbody tr").count() >= 1  # 30 mmHg: the tibial crest presses harder
+    # hot spots above the limit: never PASS, but review, saying where
+    assert page.locator("#design-verdict").get_attribute("data-verdict") == "review"
+    assert "above the 30 mmHg limit" in page.locator("#verdict-reasons").inner_text()
     assert page.locator("#knitting-spec tbody tr").count() > 40
     page.screenshot(path=str(shots / "design.png"), full_page=True)
     with page.expect_download() as info:
@@ -257,8 +260,11 @@ def test_explicit_targets_and_the_classes_of_each_standard(served, page):
     base, key = served
     sign_in(page, base, key)
     page.get_by_role("link", name="Upload").click()
+    page.locator("#scan-file").wait_for()
     page.set_input_files("#scan-file", str(REAL / "bodyparts3d_right_leg.stl"))
-    page.get_by_role("button", name="Upload and fit").click()
+    upload = page.get_by_role("button", name="Upload and fit")
+    expect(upload).to_be_enabled()
+    upload.click()
     page.wait_for_url("**/#/records/*", timeout=120_000)
     page.locator("#measurement-sheet").wait_for()
     page.get_by_role("link", name="New design").click()

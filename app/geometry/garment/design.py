@@ -78,6 +78,22 @@ DEFAULT_STEP_MM = 5.0
 DEFAULT_RESOLUTION_MM = 1.0
 
 
+def design_verdict(checks: list[dict], hot_spots: list[dict], limit_mmhg: float) -> dict:
+    """The verdict a clinician reads first: "fail" when a normative check of the standard
+    fails; "review" when only an advisory check (the commonly cited, not normative,
+    gradient rows) fails or local pressure somewhere exceeds the hot-spot limit; "pass"
+    only when every check passes and no hot spot is found.  With the reasons, each a
+    sentence naming the check or where the hot spot is (height above B, side, peak)."""
+    reasons = [f"{c['name']}: fails (normative)" for c in checks if not c["pass"] and c["normative"]]
+    verdict = "fail" if reasons else "pass"
+    advisory = [f"{c['name']}: outside (advisory)" for c in checks if not c["pass"] and not c["normative"]]
+    spots = [f"local pressure {s['peak_mmHg']:.1f} mmHg above the {limit_mmhg:g} mmHg limit at {s['height_mm']:.0f} mm "
+             f"above B ({s['from_height_mm']:.0f}-{s['to_height_mm']:.0f} mm), {s['side']}" for s in hot_spots]
+    if verdict == "pass" and (advisory or spots):
+        verdict = "review"
+    return {"verdict": verdict, "verdict_reasons": reasons + advisory + spots}
+
+
 @dataclass(frozen=True)
 class DesignInputs:
     standard: str = DEFAULT_STANDARD
@@ -192,6 +208,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         "ratios": ratios,
         "checks": checks,
         "passed": all(c["pass"] for c in checks if c["normative"]),
+        **design_verdict(checks, hot_spots, inputs.hot_spot_limit_mmhg),
         "hot_spot_limit_mmHg": inputs.hot_spot_limit_mmhg,
         "hot_spots": hot_spots,
         "side": side,

@@ -348,10 +348,14 @@ function pressureChart(design) {
   return lineChart({ title: 'Graduated pressure', series, band, xLabel: 'height above B, mm', yLabel: 'pressure, mmHg' });
 }
 
+// the design's verdict (older designs have only "passed": normative checks, no hot spots)
+const verdictOf = (design) => design.verdict ?? (design.passed ? 'pass' : 'fail');
+
 function designSummary(design) {
   return h('div', {},
-    h('p', {}, h('span', { class: `badge ${design.passed ? 'pass' : 'fail'}`, id: 'design-verdict', text: design.passed ? 'PASS' : 'FAIL' }),
+    h('p', {}, h('span', { class: `badge ${verdictOf(design)}`, id: 'design-verdict', 'data-verdict': verdictOf(design), text: verdictOf(design).toUpperCase() }),
       ` ${design.class ? `${design.class.standard} class ${design.class.class} (${design.class.range_mmHg.join('–')} mmHg at B)` : 'explicit targets'}`),
+    (design.verdict_reasons?.length ? h('ul', { id: 'verdict-reasons' }, design.verdict_reasons.map((r) => h('li', { text: r }))) : null),
     h('table', { class: 'checks' }, h('tbody', {}, design.checks.map((c) => h('tr', {}, h('td', { text: c.name }),
       h('td', { class: c.pass ? 'good' : (c.normative ? 'bad' : 'warn'), text: c.pass ? 'pass' : (c.normative ? 'fail' : 'outside (advisory)') }))))),
     pressureChart(design));
