@@ -70,7 +70,7 @@ def get_design(design_id: str, session: Session = Depends(get_session), principa
             responses={200: {"content": {"text/csv": {}}, "description": "CSV"}, **problems(s404="design_not_found")})
 def get_knitting_spec(design_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
     design = DesignService(session, principal.tenant_id).get(design_id)
-    return Response(knitting_csv(design.result), media_type="text/csv",
+    return Response(knitting_csv(design), media_type="text/csv",
                     headers={"Content-Disposition": f'attachment; filename="knitting-{design.id[:12]}.csv"'})
 
 

@@ -132,8 +132,29 @@ def design_view(design: Design) -> dict:
     }
 
 
-def knitting_csv(result: dict) -> str:
+def knitting_csv(design: Design) -> str:
+    """The knitting specification as CSV: first ``# key: value`` lines naming what it
+    belongs to (the record, the design, the side, the standard and class or the explicit
+    targets, the fabric, the verdict) - a manufacturer's file must not lose its leg -
+    then one row per height (pandas: ``read_csv(..., comment="#")``)."""
+    result = design.result
     out = io.StringIO()
+    klass = result.get("class")
+    fabric = result.get("fabric") or {}
+    fabric_text = (f"linear, K = {fabric['stiffness_n_per_cm']:g} N/cm per unit strain, max strain {fabric['max_strain']:g}"
+                   if fabric.get("stiffness_n_per_cm") is not None else f"measured table of {len(fabric.get('table') or [])} rows")
+    header = {
+        "calf-nurbs knitting specification": None,
+        "record": design.record_id,
+        "design": design.id,
+        "side": result.get("side") or "unknown",
+        "standard and class": f"{klass['standard']} class {klass['class']}" if klass else "explicit targets",
+        "fabric": fabric_text,
+        "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),
+        "units": "mm, mmHg, N/cm",
+    }
+    for key, value in header.items():
+        out.write(f"# {key}\n" if value is None else f"# {key}: {value}\n")
     writer = csv.writer(out)
     columns = ["height_mm", "target_mmHg", "predicted_mean_mmHg", "stretched_circumference_mm", "strain",
                "tension_N_per_cm", "relaxed_circumference_mm"]

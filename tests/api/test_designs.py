@@ -51,7 +51,12 @@ def test_design_is_stored_with_its_inputs_and_meets_the_class(client, record_id,
 def test_knitting_spec_csv(client, design):
     response = client.get(f"/api/v1/designs/{design['id']}/knitting-spec")
     assert response.status_code == 200 and response.headers["content-type"].startswith("text/csv")
-    rows = list(csv.DictReader(io.StringIO(response.text)))
+    lines = response.text.splitlines()
+    header = {line[2:].split(": ", 1)[0]: line.split(": ", 1)[-1] for line in lines if line.startswith("# ")}
+    assert header["record"] == design["record_id"] and header["design"] == design["id"]
+    assert header["side"] in ("left", "right") and header["standard and class"].startswith("RAL class")
+    assert header["fabric"].startswith("linear, K = ") and header["verdict"] in ("pass", "review", "fail")
+    rows = list(csv.DictReader(io.StringIO("\n".join(line for line in lines if not line.startswith("#")))))
     assert len(rows) == len(design["knitting_spec"])
     heights = [float(r["height_mm"]) for r in rows]
     assert heights == sorted(heights) and heights[0] == 0.0
