@@ -12,7 +12,7 @@ from fastapi.responses import JSONResponse
 from sqlalchemy.orm import Session
 
 from app.api.problems import problems
-from app.services.idempotency import KEY_PATTERN, IdempotencyService, Replay, fingerprint
+from app.services.idempotency import KEY_PATTERN, IdempotencyService, Replay, Stage, fingerprint
 from app.services.keys import Principal
 
 KEY_DESCRIPTION = ("a unique key (a UUID) of this request: a retry with the same key and content gets the first "
@@ -30,9 +30,6 @@ def idempotency_key(key: str | None = Header(None, alias="Idempotency-Key", patt
     return key
 
 
-#: what a route's ``respond`` gets: ``stage(status, body, location)`` writes the answer to
-#: the request's session for the service to commit with its work (None without a key)
-Stage = Callable[[int, dict, "str | None"], None]
 
 
 async def answer_once(request: Request, session: Session, principal: Principal, key: str | None, operation: str,

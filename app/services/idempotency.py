@@ -28,6 +28,7 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import timedelta
 
@@ -38,6 +39,11 @@ from app.db.models import utcnow
 from app.db.repositories import IdempotentRequestRepository
 from app.errors import BadRequest, Conflict
 from app.services.process_owner import owner_is_dead, this_process
+
+#: what a route's ``respond`` gets: ``stage(status, body, location)`` writes the answer to
+#: the request's session for the service to commit with its work (None without a key)
+Stage = Callable[[int, dict, "str | None"], None]
+
 
 #: printable ASCII without spaces, as the draft's examples; at most 255
 KEY_PATTERN = re.compile(r"^[\x21-\x7e]{1,255}$")

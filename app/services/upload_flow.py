@@ -11,7 +11,6 @@ Nothing is stored when the check fails.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -22,6 +21,7 @@ from sqlalchemy.orm import Session
 from app.errors import TooManyRequests, Unavailable
 from app.geometry.errors import FitFailure
 from app.services.fitting import validate_scan_file
+from app.services.idempotency import Stage
 from app.services.jobs import JobService, job_view
 from app.services.storage import ScanStore
 from app.services.uploads import ReceivedUpload
@@ -37,8 +37,6 @@ class CheckRunner(Protocol):
     async def submitted(self, job_id: str) -> None: ...
 
 
-#: an idempotent request's staging of its answer: (status, body, location) -> None
-Stage = Callable[[int, dict, "str | None"], None]
 
 
 @dataclass(frozen=True)

@@ -111,7 +111,7 @@ def test_rings_further_apart_than_their_points_are_one_piece():
     points = np.vstack([tube, np.repeat(apart, 8, axis=0) + np.random.default_rng(1).normal(0, 0.1, (8 * 120, 3))])
     first = max(cleanup.VOXEL_FACTOR * float(np.median(cleanup.neighbour_distances(points))), cleanup.MIN_VOXEL_MM)
     assert len(np.unique(cleanup.voxel_pieces(tube, first))) == len(z)
-    voxel = cleanup.joining_voxel(points, first)
-    labels = cleanup.voxel_pieces(points, voxel)
+    voxel, labels = cleanup.joining_voxel(points, first)
+    assert np.array_equal(labels, cleanup.voxel_pieces(points, voxel))
     assert len(np.unique(labels[: len(tube)])) == 1
     assert not np.isin(labels[len(tube):], labels[: len(tube)]).any()

@@ -455,6 +455,15 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     raise max(failures, key=lambda item: (item[0], item[1]))[2]
 
 
+def _run_around(mask: np.ndarray, index: int) -> tuple[int, int]:
+    """First and last index (inclusive) of the connected run of True in ``mask`` (k,)
+    that holds ``index`` (``mask[index]`` is taken as True)."""
+    breaks = np.flatnonzero(~mask)
+    start = int(breaks[breaks < index].max()) + 1 if (breaks < index).any() else 0
+    stop = int(breaks[breaks > index].min()) - 1 if (breaks > index).any() else len(mask) - 1
+    return start, stop
+
+
 def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, high_mm: float) -> int:
     """Index of the middle of the calf's crown around the maximum at index ``ic``.
 
@@ -468,9 +477,7 @@ def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, hig
     level &= (heights > low_mm) & (heights < high_mm)
     if not level[ic]:
         return ic
-    breaks = np.flatnonzero(~level)
-    start = breaks[breaks < ic].max() + 1 if (breaks < ic).any() else 0
-    stop = breaks[breaks > ic].min() - 1 if (breaks > ic).any() else len(g) - 1
+    start, stop = _run_around(level, ic)
     middle = 0.5 * (heights[start] + heights[stop])
     return int(start + np.argmin(np.abs(heights[start : stop + 1] - middle)))
 
@@ -584,11 +591,8 @@ def height_tolerances(heights: np.ndarray, girth: np.ndarray, marks_mm: dict) ->
     for name, z in marks_mm.items():
         i = int(np.clip(np.searchsorted(heights, z), 0, len(heights) - 1))
         level = np.interp(z, heights, g)
-        same = np.abs(g - level) <= max(CROWN_FRACTION * level, 1.0)
-        same[i] = True
-        breaks = np.flatnonzero(~same)
-        start = heights[breaks[breaks < i].max() + 1] if (breaks < i).any() else heights[0]
-        stop = heights[breaks[breaks > i].min() - 1] if (breaks > i).any() else heights[-1]
+        first, last = _run_around(np.abs(g - level) <= max(CROWN_FRACTION * level, 1.0), i)
+        start, stop = heights[first], heights[last]
         if name == "B":
             out[name] = float(stop - z)
         elif name == "D":

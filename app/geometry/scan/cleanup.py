@@ -265,9 +265,9 @@ VOXEL_GROWTH = 1.5
 MAX_VOXEL_MM = 30.0
 
 
-def joining_voxel(points: np.ndarray, voxel_mm: float) -> float:
+def joining_voxel(points: np.ndarray, voxel_mm: float) -> tuple[float, np.ndarray]:
     """The voxel (mm) that joins a cloud's skin into pieces, from the first guess
-    ``voxel_mm`` (3 x the median spacing).
+    ``voxel_mm`` (3 x the median spacing), and the (n,) piece labels it gives.
 
     The median nearest-neighbour spacing sees the points along a scanner's rings, not the
     gaps between the rings: the vertices of a coarse mesh exported as a cloud lie 3-5 mm
@@ -293,7 +293,7 @@ def joining_voxel(points: np.ndarray, voxel_mm: float) -> float:
         if not (scattered or merged):
             break
         voxel_mm, labels = larger, grown
-    return voxel_mm
+    return voxel_mm, labels
 
 
 def voxel_pieces(points: np.ndarray, voxel_mm: float) -> np.ndarray:
@@ -362,12 +362,12 @@ def clean_scan(points: np.ndarray, faces: np.ndarray | None, replay: CleanupRepl
         if replay is not None and replay.voxel_mm is not None:
             voxel_mm = float(replay.voxel_mm)
             spacing_p95 = replay.spacing_p95_mm
+            labels = voxel_pieces(kept, voxel_mm)
         else:
             spacing = neighbour_distances(kept)
             voxel_mm = max(VOXEL_FACTOR * float(np.median(spacing)), MIN_VOXEL_MM)
             spacing_p95 = float(np.percentile(spacing, 95.0))
-            voxel_mm = joining_voxel(kept, voxel_mm)
-        labels = voxel_pieces(kept, voxel_mm)
+            voxel_mm, labels = joining_voxel(kept, voxel_mm)
     sizes = np.bincount(labels)
     big = np.flatnonzero(sizes >= MIN_PIECE_FRACTION * len(kept))
     big = big[np.argsort(-sizes[big])]

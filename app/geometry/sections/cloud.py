@@ -198,14 +198,16 @@ def slice_points_polar(
     heights = np.asarray(heights, dtype=np.float64)
     if half_thickness is None:
         half_thickness = slab_half_thickness(points[:, 2])
-    sections = _slice_slabs(points, heights, n_angles, half_thickness, harmonics)
+    order = np.argsort(points[:, 2], kind="stable")  # once, for every thickness
+    ordered = (order, points[order, 2])
+    sections = _slice_slabs(points, ordered, heights, n_angles, half_thickness, harmonics)
     half = half_thickness
     while half < MAX_HALF_MM:
         thin = np.flatnonzero(sections.coverage < WIDEN_BELOW_COVERAGE)
         if not thin.size:
             break
         half = min(half * WIDEN_FACTOR, MAX_HALF_MM)
-        wider = _slice_slabs(points, heights[thin], n_angles, half, harmonics)
+        wider = _slice_slabs(points, ordered, heights[thin], n_angles, half, harmonics)
         better = (wider.coverage > sections.coverage[thin]) & np.isfinite(wider.radii_mm).all(axis=1)
         if not better.any():
             continue
@@ -216,14 +218,14 @@ def slice_points_polar(
     return sections
 
 
-def _slice_slabs(points: np.ndarray, heights: np.ndarray, n_angles: int, half_thickness: float,
-                 harmonics: int) -> PolarSections:
+def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], heights: np.ndarray, n_angles: int,
+                 half_thickness: float, harmonics: int) -> PolarSections:
     """The robust polar fit of every slab of ``half_thickness`` (mm) around ``heights``
-    (k,) at once (see :func:`slice_points_polar`)."""
+    (k,) at once (see :func:`slice_points_polar`); ``ordered``: the points' order along
+    z (n,) and their sorted z (n,)."""
     k = len(heights)
     angles = ray_angles(n_angles)
-    order = np.argsort(points[:, 2], kind="stable")
-    z_sorted = points[order, 2]
+    order, z_sorted = ordered
     lo = np.searchsorted(z_sorted, heights - half_thickness, side="left")
     hi = np.searchsorted(z_sorted, heights + half_thickness, side="right")
     count = np.maximum(hi - lo, 0)
