@@ -10,28 +10,15 @@ from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session
+from app.api.negotiation import negotiate
 from app.api.problems import auth_problems, problems
 from app.api.schemas import ComparisonOut
-from app.errors import NotAcceptable
 from app.services.comparisons import ComparisonService
 from app.services.keys import Principal
 
 router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 
 MEDIA = {"json": "application/json", "glb": "model/gltf-binary", "csv": "text/csv"}
-
-
-def _negotiate(accept: str | None, query_format: str | None) -> str:
-    if query_format:
-        return query_format
-    accept = (accept or "*/*").lower()
-    for fmt in ("json", "glb", "csv"):  # the first listed media type the client takes
-        if MEDIA[fmt] in accept:
-            return fmt
-    if "*/*" in accept or "application/*" in accept:
-        return "json"
-    raise NotAcceptable("the comparison is available as application/json, model/gltf-binary (difference map) "
-                        "or text/csv (difference map)")
 
 
 @router.get(
@@ -55,7 +42,7 @@ async def compare_records(
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
-    fmt = _negotiate(request.headers.get("accept"), file_format)
+    fmt = negotiate(request.headers.get("accept"), file_format, MEDIA, "the comparison (json) or its difference map (glb, csv)")
     service = ComparisonService(session, principal.tenant_id)
     if fmt == "json":
         return await run_in_threadpool(service.compare, record_a, record_b, align)

@@ -13,12 +13,15 @@ from sqlalchemy.orm import Session
 from app.api.auth import authorize
 from app.api.deps import get_session
 from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
+from app.api.negotiation import negotiate
 from app.api.problems import auth_problems, problems
 from app.api.schemas import DesignOut, DesignRequest
-from app.errors import NotAcceptable, NotFound
+from app.errors import NotFound
 from app.services import charts
 from app.services.designs import DesignService, color_scale, design_view, knitting_csv, pressure_grid, pressure_map_csv, pressure_map_glb
 from app.services.keys import Principal
+
+PRESSURE_MAP_MEDIA = {"glb": "model/gltf-binary", "csv": "text/csv"}
 
 router = APIRouter(prefix="/api/v1", tags=["designs"], responses=auth_problems())
 
@@ -82,11 +85,7 @@ def get_knitting_spec(design_id: str, session: Session = Depends(get_session), p
 async def get_pressure_map(design_id: str, request: Request,
                            file_format: Literal["glb", "csv"] | None = Query(None, alias="format", description="overrides Accept"),
                            session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
-    accept = (request.headers.get("accept") or "*/*").lower()
-    fmt = (file_format or ("csv" if "text/csv" in accept and "gltf" not in accept else "glb" if any(
-        m in accept for m in ("model/gltf-binary", "*/*", "model/*")) else "")).lower()
-    if fmt not in ("glb", "csv"):
-        raise NotAcceptable("the pressure map is available as model/gltf-binary or text/csv")
+    fmt = negotiate(request.headers.get("accept"), file_format, PRESSURE_MAP_MEDIA, "the pressure map")
     service = DesignService(session, principal.tenant_id)
     design = await run_in_threadpool(service.get, design_id)
     record = await run_in_threadpool(service.record_of, design)

@@ -11,10 +11,11 @@ from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session, get_store
+from app.api.negotiation import negotiate
 from app.api.problems import auth_problems, problems
 from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage, ScanPointsOut
 from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
-from app.errors import NotAcceptable, Unprocessable
+from app.errors import Unprocessable
 from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
 from app.services.deviations import DeviationService
 from app.services.keys import Principal
@@ -27,7 +28,6 @@ HEIGHTS_PATTERN = rf"^\s*{_NUMBER}(\s*,\s*{_NUMBER})*\s*$"
 
 router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems())
 
-MEDIA_TO_FORMAT = {media: fmt for fmt, media in SURFACE_MEDIA_TYPES.items()}
 
 
 def record_out(record) -> dict:
@@ -114,35 +114,8 @@ def delete_record(record_id: str, session: Session = Depends(get_session), princ
 
 
 def negotiate_surface_format(accept: str | None, query_format: str | None) -> str:
-    """?format= wins; otherwise the best of Accept (q-values honoured); */* means STL."""
-    if query_format:
-        fmt = query_format.lower()
-        if fmt not in SURFACE_MEDIA_TYPES:
-            raise NotAcceptable(f"format must be one of {', '.join(SURFACE_MEDIA_TYPES)}, not {query_format!r}")
-        return fmt
-    if not accept:
-        return "stl"
-    offers = []
-    for position, item in enumerate(accept.split(",")):
-        parts = [p.strip() for p in item.split(";")]
-        media, q = parts[0].lower(), 1.0
-        for param in parts[1:]:
-            if param.startswith("q="):
-                try:
-                    q = float(param[2:])
-                except ValueError:
-                    q = 0.0
-        offers.append((q, -position, media))
-    for q, _, media in sorted(offers, reverse=True):
-        if q <= 0:
-            continue
-        if media in MEDIA_TO_FORMAT:
-            return MEDIA_TO_FORMAT[media]
-        if media in ("*/*", "model/*"):
-            return "stl"
-    raise NotAcceptable(
-        f"cannot produce {accept!r}; this resource is available as {', '.join(SURFACE_MEDIA_TYPES.values())}"
-    )
+    """?format= wins; otherwise the best of Accept (RFC 9110 q-values); */* and model/* mean STL."""
+    return negotiate(accept, query_format, SURFACE_MEDIA_TYPES, "this surface")
 
 
 @router.get(
