@@ -22,6 +22,7 @@ from app.geometry.garment.pressure import pressure_map  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
 from app.services import charts  # noqa: E402
+from app.services.designs import design_document  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -86,7 +87,7 @@ def main() -> None:
         result = fit_scan(scan, FitOptions(side=None if file.startswith("bodyparts") else side))
         record = record_from_fit(result, scan.source_format, scan.units)
         inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(STIFFNESS))
-        design = design_stocking(record.surface, record.landmarks, side, inputs)
+        design = design_document(design_stocking(record.surface, record.landmarks, side, inputs))  # the stored JSON
         times = []
         for _ in range(5):
             start = time.perf_counter()

@@ -18,9 +18,10 @@ from app.db.models import Design
 from app.db.repositories import DesignRepository
 from app.errors import NotFound, from_fit_failure
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.garment.design import DesignInputs, design_stocking
+from app.geometry.garment.design import DesignCheck, DesignInputs, LandmarkPressure, StockingDesign, design_stocking
 from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN, Fabric
-from app.geometry.garment.pressure import PA_PER_MMHG, pressure_map
+from app.geometry.garment.pressure import PA_PER_MMHG, HotSpot, pressure_map
+from app.geometry.garment.standards import GRADIENT
 from app.records.codec import CalfRecord
 from app.records.meshes import apply_frame, surface_grid_faces
 from app.services.records import RecordService
@@ -70,7 +71,67 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
 
 
 def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
-    return design_stocking(record.surface, record.landmarks, record.side, inputs)
+    """The design of ``record`` as stored and sent (:func:`design_document`)."""
+    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs))
+
+
+def _check_document(check: DesignCheck) -> dict:
+    return {"name": check.name, "value": check.value, "pass": check.passed, "normative": check.normative}
+
+
+def _hot_spot_document(spot: HotSpot) -> dict:
+    return {"height_mm": spot.height_mm, "from_height_mm": spot.from_height_mm, "to_height_mm": spot.to_height_mm,
+            "angle_deg": spot.angle_deg, "side": spot.side, "peak_mmHg": spot.peak_pa / PA_PER_MMHG,
+            "peak_kPa": spot.peak_pa / 1000, "samples": spot.samples}
+
+
+def _landmark_document(at: LandmarkPressure) -> dict:
+    return {
+        "height_mm": at.height_mm,
+        "target_mmHg": at.target_mmhg,
+        "mean_pressure_mmHg": at.mean_pressure_pa / PA_PER_MMHG,
+        "mean_pressure_kPa": at.mean_pressure_pa / 1000,
+        "peak_pressure_mmHg": at.peak_pressure_pa / PA_PER_MMHG,
+        "stretched_circumference_mm": at.stretched_circumference_mm,
+        "skin_circumference_mm": at.skin_circumference_mm,
+        "relaxed_circumference_mm": at.relaxed_circumference_mm,
+        "strain": at.strain,
+        "tension_N_per_cm": at.tension_n_per_cm,
+        "sides_mmHg": {k: v / PA_PER_MMHG for k, v in at.sides_pa.items()},
+        "sides_kPa": {k: v / 1000 for k, v in at.sides_pa.items()},
+    }
+
+
+def design_document(design: StockingDesign) -> dict:
+    """The JSON form of a design, as stored and as the API's DesignOut carries it
+    (units named in ``units``; the one place a StockingDesign is shaped for the wire)."""
+    spec = design.knitting_spec
+    verdict, reasons = design.verdict
+    return {
+        "units": {"length": "mm", "pressure": "mmHg (kPa where named)", "tension": "N/cm"},
+        "class": design.compression_class,
+        "targets_mmHg": design.targets_mmhg,
+        "gradient_table": {k: {**v, "range": list(v["range"])} for k, v in GRADIENT.items()},
+        "fabric": design.fabric.as_dict(),
+        "landmarks": {name: _landmark_document(at) for name, at in design.landmarks.items()},
+        "ratios": design.ratios,
+        "checks": [_check_document(c) for c in design.checks],
+        "passed": design.passed,
+        "verdict": verdict,
+        "verdict_reasons": reasons,
+        "hot_spot_limit_mmHg": design.hot_spot_limit_mmhg,
+        "hot_spots": [_hot_spot_document(s) for s in design.hot_spots],
+        "side": design.side,
+        "side_assumed": design.side_assumed,
+        "knitting_spec": [
+            {"height_mm": float(h), "target_mmHg": float(t), "stretched_circumference_mm": float(L),
+             "tension_N_per_cm": float(T), "strain": float(e), "relaxed_circumference_mm": float(L0),
+             "predicted_mean_mmHg": float(m / PA_PER_MMHG)}
+            for h, t, L, T, e, L0, m in zip(spec.heights_mm, spec.target_mmhg, spec.stretched_circumference_mm,
+                                            spec.tension_n_per_cm, spec.strain, spec.relaxed_circumference_mm,
+                                            spec.predicted_mean_pa)
+        ],
+    }
 
 
 class DesignService:

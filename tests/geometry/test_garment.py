@@ -18,9 +18,9 @@ def test_a_linear_tension_table_reproduces_the_stiffness():
     surface = tube(45.0, 38.0)
     linear = design_stocking(surface, LANDMARKS, "right", DesignInputs(fabric=Fabric.linear(12.0)))
     table = design_stocking(surface, LANDMARKS, "right", DesignInputs(fabric=Fabric.table([0.0, 0.3, 0.6, 1.0], [0.0, 3.6, 7.2, 12.0])))
-    for a, b in zip(linear["knitting_spec"], table["knitting_spec"]):
-        assert a["relaxed_circumference_mm"] == pytest.approx(b["relaxed_circumference_mm"], abs=1e-6)
-        assert a["tension_N_per_cm"] == pytest.approx(b["tension_N_per_cm"], rel=1e-6)
+    a, b = linear.knitting_spec, table.knitting_spec
+    assert np.allclose(a.relaxed_circumference_mm, b.relaxed_circumference_mm, atol=1e-6)
+    assert np.allclose(a.tension_n_per_cm, b.tension_n_per_cm, rtol=1e-6)
     fabric = Fabric.table([0.1, 0.5, 0.9], [1.0, 4.0, 12.0])
     strains = np.array([0.1, 0.3, 0.7, 0.9])
     assert np.allclose(fabric.strain_for(fabric.tension(strains)), strains)
@@ -29,26 +29,27 @@ def test_a_linear_tension_table_reproduces_the_stiffness():
 def test_design_meets_its_targets_and_grades_down_the_leg():
     surface = tube(33.0, 30.0)
     result = design_stocking(surface, LANDMARKS, "left", DesignInputs(compression_class="II", fabric=Fabric.linear(8.0)))
-    b = result["landmarks"]["B"]
-    assert 23 <= b["mean_pressure_mmHg"] <= 32
-    assert b["mean_pressure_mmHg"] == pytest.approx(27.5, abs=0.5)  # the middle of class II
-    p = [result["landmarks"][n]["mean_pressure_mmHg"] for n in ("B", "B1", "C", "D")]
+    b = result.landmarks["B"]
+    assert 23 <= b.mean_pressure_mmhg <= 32
+    assert b.mean_pressure_mmhg == pytest.approx(27.5, abs=0.5)  # the middle of class II
+    p = [result.landmarks[n].mean_pressure_mmhg for n in ("B", "B1", "C", "D")]
     assert p[0] > p[1] > p[2] > p[3]
-    assert result["ratios"]["D/B"] == pytest.approx(0.5, abs=0.02)
-    assert result["passed"] and not result["side_assumed"]
-    spec = result["knitting_spec"]
-    spec_heights = np.array([row["height_mm"] for row in spec])
-    assert set(np.arange(0.0, 281.0, 5.0)) <= set(np.round(spec_heights, 6))  # every 5 mm from B to D
-    assert {0.0, 80.0, 180.0, 280.0} <= set(np.round(spec_heights, 6))  # and at the landmarks
-    for row in spec:  # L0 = L / (1 + eps), knitted to 1 mm
-        assert row["relaxed_circumference_mm"] == pytest.approx(round(row["stretched_circumference_mm"] / (1 + row["target_mmHg"] * PA_PER_MMHG * row["stretched_circumference_mm"] / (2 * np.pi * 1e5) / 8.0)), abs=1.0)
+    assert result.ratios["D/B"] == pytest.approx(0.5, abs=0.02)
+    assert result.passed and not result.side_assumed
+    spec = result.knitting_spec
+    assert set(np.arange(0.0, 281.0, 5.0)) <= set(np.round(spec.heights_mm, 6))  # every 5 mm from B to D
+    assert {0.0, 80.0, 180.0, 280.0} <= set(np.round(spec.heights_mm, 6))  # and at the landmarks
+    # L0 = L / (1 + eps), eps = T / K, T = P L / (2 pi), knitted to 1 mm
+    L = spec.stretched_circumference_mm
+    expected = np.round(L / (1 + spec.target_mmhg * PA_PER_MMHG * L / (2 * np.pi * 1e5) / 8.0))
+    assert np.allclose(spec.relaxed_circumference_mm, expected, atol=1.0)
 
 
 def test_explicit_targets_and_other_standards():
     surface = tube(33.0, 30.0)
     explicit = design_stocking(surface, LANDMARKS, None, DesignInputs(targets_mmhg={"B": 30, "B1": 25, "C": 20, "D": 12}, fabric=Fabric.linear(10)))
-    assert explicit["landmarks"]["C"]["mean_pressure_mmHg"] == pytest.approx(20, abs=0.5)
-    assert explicit["class"] is None and explicit["side_assumed"]
+    assert explicit.landmarks["C"].mean_pressure_mmhg == pytest.approx(20, abs=0.5)
+    assert explicit.compression_class is None and explicit.side_assumed
     assert normalize_class("bs", "class 2")[1:] == ("2", (18.0, 24.0))
     assert normalize_class("AFNOR", "III")[1] == "3"
     assert normalize_class("RAL", "ccl4")[2] == (49.0, None)
@@ -81,12 +82,12 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
     _, result = fitted(file, side)
     landmarks = result.landmarks.as_dict()
     design = design_stocking(result.surface, landmarks, side or "right", DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)))
-    p = {n: design["landmarks"][n]["mean_pressure_mmHg"] for n in ("B", "B1", "C", "D")}
+    p = {n: design.landmarks[n].mean_pressure_mmhg for n in ("B", "B1", "C", "D")}
     assert 23 <= p["B"] <= 32
     assert p["B"] > p["B1"] > p["C"] > p["D"]
-    assert design["passed"]
+    assert design.passed
     # local pressures vary around the leg (the paper's Table 1): tendons and the tibia carry more
-    sides = design["landmarks"]["B"]["sides_mmHg"]
+    sides = design.landmarks["B"].sides_pa
     assert max(sides.values()) > 1.2 * min(sides.values())
     assert all(v >= 0 for v in sides.values())
 
@@ -94,13 +95,17 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
 def test_the_verdict_is_pass_only_without_failed_checks_and_hot_spots():
     """fail on a normative check, review on an advisory check or a hot spot (with where
     it is), pass only when nothing is left to look at."""
-    from app.geometry.garment.design import design_verdict
+    from dataclasses import replace
 
-    normative = {"name": "B in RAL class II", "pass": True, "normative": True}
-    advisory = {"name": "C 50-80% of B", "pass": True, "normative": False}
-    spot = {"peak_mmHg": 63.8, "height_mm": 120.0, "from_height_mm": 110.0, "to_height_mm": 131.0, "side": "anterior"}
-    assert design_verdict([normative, advisory], [], 60.0) == {"verdict": "pass", "verdict_reasons": []}
-    review = design_verdict([normative, advisory], [spot], 60.0)
-    assert review["verdict"] == "review" and "63.8 mmHg above the 60 mmHg limit at 120 mm above B" in review["verdict_reasons"][0]
-    assert design_verdict([normative, {**advisory, "pass": False}], [], 60.0)["verdict"] == "review"
-    assert design_verdict([{**normative, "pass": False}, advisory], [spot], 60.0)["verdict"] == "fail"
+    from app.geometry.garment.design import DesignCheck, design_verdict
+    from app.geometry.garment.pressure import HotSpot
+
+    normative = DesignCheck("B in RAL class II", 27.0, True, True)
+    advisory = DesignCheck("C 50-80% of B", 0.6, True, False)
+    spot = HotSpot(height_mm=120.0, from_height_mm=110.0, to_height_mm=131.0, angle_deg=90.0, side="anterior",
+                   peak_pa=63.8 * PA_PER_MMHG, samples=12)
+    assert design_verdict([normative, advisory], [], 60.0) == ("pass", [])
+    verdict, reasons = design_verdict([normative, advisory], [spot], 60.0)
+    assert verdict == "review" and "63.8 mmHg above the 60 mmHg limit at 120 mm above B" in reasons[0]
+    assert design_verdict([normative, replace(advisory, passed=False)], [], 60.0)[0] == "review"
+    assert design_verdict([replace(normative, passed=False), advisory], [spot], 60.0)[0] == "fail"

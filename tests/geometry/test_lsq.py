@@ -124,4 +124,4 @@ def test_lsq_ends_lie_in_the_planes_of_b_and_d_and_read_the_scans_girths(file, s
     record = record_from_fit(result, "stl", "mm")
     design = design_stocking(record.surface, record.landmarks, record.side,
                              DesignInputs(standard="RAL", compression_class="II", fabric=Fabric.linear(10.0, 1.0)))
-    assert design["landmarks"]["B"]["mean_pressure_mmHg"] > 0
+    assert design.landmarks["B"].mean_pressure_mmhg > 0

@@ -80,6 +80,6 @@ def test_hot_spots_are_regions_and_one_region_across_the_seam():
     spots = find_hot_spots(rings, local, 5000.0, {"east": 0.0, "north": np.pi / 2})
     assert len(spots) == 2
     seam, other = spots
-    assert seam["peak_kPa"] == pytest.approx(9.5) and seam["samples"] == 3 * 9 and seam["side"] == "east"
-    assert (seam["from_height_mm"], seam["to_height_mm"]) == (rings.heights_mm[3], rings.heights_mm[5])
-    assert other["samples"] == 4 and other["height_mm"] == rings.heights_mm[10] and other["side"] == "north"
+    assert seam.peak_pa == pytest.approx(9500) and seam.samples == 3 * 9 and seam.side == "east"
+    assert (seam.from_height_mm, seam.to_height_mm) == (rings.heights_mm[3], rings.heights_mm[5])
+    assert other.samples == 4 and other.height_mm == rings.heights_mm[10] and other.side == "north"

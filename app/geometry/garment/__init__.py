@@ -5,8 +5,8 @@ section 4) and the stocking design with its knitting specification.
 
 from __future__ import annotations
 
-from app.geometry.garment.design import design_stocking
+from app.geometry.garment.design import DesignInputs, StockingDesign, design_stocking
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.standards import COMPRESSION_CLASSES, GRADIENT
 
-__all__ = ["COMPRESSION_CLASSES", "Fabric", "GRADIENT", "design_stocking"]
+__all__ = ["COMPRESSION_CLASSES", "DesignInputs", "Fabric", "GRADIENT", "StockingDesign", "design_stocking"]

@@ -35,7 +35,6 @@ prediction is then recomputed from the rounded L0, as the knitted stocking would
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -45,6 +44,7 @@ from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.pressure import (
     PA_PER_MMHG,
     PA_PER_N_PER_CM_PER_MM,
+    HotSpot,
     find_hot_spots,
     local_pressure_pa,
     mean_pressure_pa,
@@ -78,20 +78,104 @@ DEFAULT_STEP_MM = 5.0
 DEFAULT_RESOLUTION_MM = 1.0
 
 
-def design_verdict(checks: list[dict], hot_spots: list[dict], limit_mmhg: float) -> dict:
+@dataclass(frozen=True)
+class DesignCheck:
+    """One check of a design: its name (with the standard it comes from), the value
+    checked (mmHg or a ratio; a list for the gradient), whether it passed and whether
+    the standard makes it normative."""
+
+    name: str
+    value: float | list[float]
+    passed: bool
+    normative: bool
+
+
+@dataclass(frozen=True)
+class LandmarkPressure:
+    """The design at one landmark: heights mm above the floor frame's z, the target mmHg,
+    predicted pressures Pa (``sides_pa`` per direction: medial, lateral, anterior,
+    posterior; mmHg = Pa / :data:`PA_PER_MMHG`), circumferences
+    mm (stretched = hull of the skin, skin = the section's own perimeter, relaxed = the
+    knitted specification), strain (-) and tension N/cm of the knitted stocking."""
+
+    height_mm: float
+    target_mmhg: float
+    mean_pressure_pa: float
+    peak_pressure_pa: float
+    stretched_circumference_mm: float
+    skin_circumference_mm: float
+    relaxed_circumference_mm: float
+    strain: float
+    tension_n_per_cm: float
+    sides_pa: dict[str, float]
+
+    @property
+    def mean_pressure_mmhg(self) -> float:
+        return self.mean_pressure_pa / PA_PER_MMHG
+
+
+@dataclass(frozen=True)
+class KnittingSpec:
+    """The knitting specification, one row per height (every ``step_mm`` from B to D and
+    at the landmarks): all arrays (k,), heights mm, target mmHg, predicted mean Pa,
+    stretched and relaxed circumferences mm, tension N/cm, strain (-)."""
+
+    heights_mm: np.ndarray
+    target_mmhg: np.ndarray
+    stretched_circumference_mm: np.ndarray
+    tension_n_per_cm: np.ndarray
+    strain: np.ndarray
+    relaxed_circumference_mm: np.ndarray
+    predicted_mean_pa: np.ndarray
+
+
+@dataclass(frozen=True)
+class StockingDesign:
+    """A graduated compression stocking designed on a calf record (module docstring).
+
+    ``compression_class`` is None for explicit targets, else {"standard", "class",
+    "range_mmHg", "source"}; ``targets_mmhg`` B, B1, C, D; ``ratios`` "B1/B", "C/B",
+    "D/B" of the predicted mean pressures.  Its JSON form is shaped by the service
+    (:func:`app.services.designs.design_document`).
+    """
+
+    compression_class: dict | None
+    targets_mmhg: dict[str, float]
+    fabric: Fabric
+    landmarks: dict[str, LandmarkPressure]
+    ratios: dict[str, float]
+    checks: tuple[DesignCheck, ...]
+    hot_spots: tuple[HotSpot, ...]
+    hot_spot_limit_mmhg: float
+    side: str | None
+    side_assumed: bool
+    knitting_spec: KnittingSpec
+
+    @property
+    def passed(self) -> bool:
+        """Every normative check passes (hot spots and advisory checks aside)."""
+        return all(c.passed for c in self.checks if c.normative)
+
+    @property
+    def verdict(self) -> tuple[str, list[str]]:
+        """(verdict, reasons): see :func:`design_verdict`."""
+        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg)
+
+
+def design_verdict(checks, hot_spots, limit_mmhg: float) -> tuple[str, list[str]]:
     """The verdict a clinician reads first: "fail" when a normative check of the standard
     fails; "review" when only an advisory check (the commonly cited, not normative,
     gradient rows) fails or local pressure somewhere exceeds the hot-spot limit; "pass"
     only when every check passes and no hot spot is found.  With the reasons, each a
     sentence naming the check or where the hot spot is (height above B, side, peak)."""
-    reasons = [f"{c['name']}: fails (normative)" for c in checks if not c["pass"] and c["normative"]]
+    reasons = [f"{c.name}: fails (normative)" for c in checks if not c.passed and c.normative]
     verdict = "fail" if reasons else "pass"
-    advisory = [f"{c['name']}: outside (advisory)" for c in checks if not c["pass"] and not c["normative"]]
-    spots = [f"local pressure {s['peak_mmHg']:.1f} mmHg above the {limit_mmhg:g} mmHg limit at {s['height_mm']:.0f} mm "
-             f"above B ({s['from_height_mm']:.0f}-{s['to_height_mm']:.0f} mm), {s['side']}" for s in hot_spots]
+    advisory = [f"{c.name}: outside (advisory)" for c in checks if not c.passed and not c.normative]
+    spots = [f"local pressure {s.peak_mmhg:.1f} mmHg above the {limit_mmhg:g} mmHg limit at {s.height_mm:.0f} mm "
+             f"above B ({s.from_height_mm:.0f}-{s.to_height_mm:.0f} mm), {s.side}" for s in hot_spots]
     if verdict == "pass" and (advisory or spots):
         verdict = "review"
-    return {"verdict": verdict, "verdict_reasons": reasons + advisory + spots}
+    return verdict, reasons + advisory + spots
 
 
 @dataclass(frozen=True)
@@ -106,8 +190,8 @@ class DesignInputs:
     n_around: int = 360
 
 
-def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs) -> dict:
-    """The stocking design (see module docstring); a JSON-ready dictionary.
+def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs) -> StockingDesign:
+    """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
     C, D; side: "left" | "right" | None.  Raises FitFailure (INVALID_TARGET,
@@ -165,71 +249,52 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     sides = sector_means(rings, local, directions)
 
     index = {name: int(np.argmin(np.abs(heights - landmark_z[name]))) for name in LANDMARK_NAMES}
-    per_landmark: dict[str, dict[str, Any]] = {}
-    for name in LANDMARK_NAMES:
-        i = index[name]
-        per_landmark[name] = {
-            "height_mm": float(heights[i]),
-            "target_mmHg": float(target_mmhg[i]),
-            "mean_pressure_mmHg": float(mean[i] / PA_PER_MMHG),
-            "mean_pressure_kPa": float(mean[i] / 1000),
-            "peak_pressure_mmHg": float(local[i].max() / PA_PER_MMHG),
-            "stretched_circumference_mm": float(rings.hull_perimeter[i]),
-            "skin_circumference_mm": float(rings.perimeter[i]),
-            "relaxed_circumference_mm": float(relaxed_knit[i]),
-            "strain": float(strain_knit[i]),
-            "tension_N_per_cm": float(tension_knit[i]),
-            "sides_mmHg": {k: float(v[i] / PA_PER_MMHG) for k, v in sides.items()},
-            "sides_kPa": {k: float(v[i] / 1000) for k, v in sides.items()},
-        }
-    p = {name: per_landmark[name]["mean_pressure_mmHg"] for name in LANDMARK_NAMES}
-    ratios = {f"{n}/B": p[n] / p["B"] for n in ("B1", "C", "D")}
-    checks = _checks(p, ratios, class_info)
-    hot_spots = find_hot_spots(rings, local, inputs.hot_spot_limit_mmhg * PA_PER_MMHG, directions)
-    spec = [
-        {
-            "height_mm": float(h),
-            "target_mmHg": float(t),
-            "stretched_circumference_mm": float(L),
-            "tension_N_per_cm": float(T),
-            "strain": float(e),
-            "relaxed_circumference_mm": float(L0),
-            "predicted_mean_mmHg": float(m / PA_PER_MMHG),
-        }
-        for h, t, L, T, e, L0, m in zip(heights, target_mmhg, rings.hull_perimeter, tension_knit, strain_knit, relaxed_knit, mean)
-    ]
-    return {
-        "units": {"length": "mm", "pressure": "mmHg (kPa where named)", "tension": "N/cm"},
-        "class": class_info,
-        "targets_mmHg": targets,
-        "gradient_table": {k: {**v, "range": list(v["range"])} for k, v in GRADIENT.items()},
-        "fabric": inputs.fabric.as_dict(),
-        "landmarks": per_landmark,
-        "ratios": ratios,
-        "checks": checks,
-        "passed": all(c["pass"] for c in checks if c["normative"]),
-        **design_verdict(checks, hot_spots, inputs.hot_spot_limit_mmhg),
-        "hot_spot_limit_mmHg": inputs.hot_spot_limit_mmhg,
-        "hot_spots": hot_spots,
-        "side": side,
-        "side_assumed": side_assumed,
-        "knitting_spec": spec,
+    per_landmark = {
+        name: LandmarkPressure(
+            height_mm=float(heights[i]),
+            target_mmhg=float(target_mmhg[i]),
+            mean_pressure_pa=float(mean[i]),
+            peak_pressure_pa=float(local[i].max()),
+            stretched_circumference_mm=float(rings.hull_perimeter[i]),
+            skin_circumference_mm=float(rings.perimeter[i]),
+            relaxed_circumference_mm=float(relaxed_knit[i]),
+            strain=float(strain_knit[i]),
+            tension_n_per_cm=float(tension_knit[i]),
+            sides_pa={k: float(v[i]) for k, v in sides.items()},
+        )
+        for name, i in index.items()
     }
+    p = {name: per_landmark[name].mean_pressure_mmhg for name in LANDMARK_NAMES}
+    ratios = {f"{n}/B": p[n] / p["B"] for n in ("B1", "C", "D")}
+    return StockingDesign(
+        compression_class=class_info,
+        targets_mmhg=targets,
+        fabric=inputs.fabric,
+        landmarks=per_landmark,
+        ratios=ratios,
+        checks=tuple(_checks(p, ratios, class_info)),
+        hot_spots=tuple(find_hot_spots(rings, local, inputs.hot_spot_limit_mmhg * PA_PER_MMHG, directions)),
+        hot_spot_limit_mmhg=inputs.hot_spot_limit_mmhg,
+        side=side,
+        side_assumed=side_assumed,
+        knitting_spec=KnittingSpec(heights, target_mmhg, rings.hull_perimeter, tension_knit, strain_knit,
+                                   relaxed_knit, mean),
+    )
 
 
-def _checks(p: dict, ratios: dict, class_info: dict | None) -> list[dict]:
+def _checks(p: dict, ratios: dict, class_info: dict | None) -> list[DesignCheck]:
     checks = []
     if class_info is not None:
         lo, hi = class_info["range_mmHg"]
         ok = p["B"] >= lo - 1e-9 and (hi is None or p["B"] <= hi + 1e-9)
         label = f"{lo:g}-{hi:g}" if hi is not None else f">= {lo:g}"
-        checks.append({"name": f"B in {class_info['standard']} class {class_info['class']} ({label} mmHg)",
-                       "value": p["B"], "pass": bool(ok), "normative": True})
-    checks.append({"name": "graded B > B1 > C > D", "value": [p[n] for n in LANDMARK_NAMES],
-                   "pass": bool(p["B"] > p["B1"] > p["C"] > p["D"]), "normative": True})
+        checks.append(DesignCheck(f"B in {class_info['standard']} class {class_info['class']} ({label} mmHg)",
+                                  p["B"], bool(ok), True))
+    checks.append(DesignCheck("graded B > B1 > C > D", [p[n] for n in LANDMARK_NAMES],
+                              bool(p["B"] > p["B1"] > p["C"] > p["D"]), True))
     for name, row in GRADIENT.items():
         lo, hi = row["range"]
         value = ratios[f"{name}/B"]
-        checks.append({"name": f"{name}/B in {lo:.0%}-{hi:.0%} ({row['source']})", "value": value,
-                       "pass": bool(lo - 1e-9 <= value <= hi + 1e-9), "normative": row["normative"]})
+        checks.append(DesignCheck(f"{name}/B in {lo:.0%}-{hi:.0%} ({row['source']})", value,
+                                  bool(lo - 1e-9 <= value <= hi + 1e-9), row["normative"]))
     return checks

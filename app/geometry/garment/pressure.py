@@ -19,7 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
 from app.geometry.errors import FailureReason, FitFailure
@@ -164,29 +165,42 @@ def sector_name(angle: float, directions: dict[str, float]) -> str:
     return names[int(np.argmin(diffs))]
 
 
-def find_hot_spots(rings: Rings, local_pa: np.ndarray, limit_pa: float, directions: dict[str, float]) -> list[dict]:
-    """Connected regions of the (height x angle) grid where local pressure > limit.
+@dataclass(frozen=True)
+class HotSpot:
+    """A connected region where local pressure exceeds the limit: its peak (Pa) and
+    where it is (height mm of the peak and the region's height extent, the peak's angle
+    in degrees and its sector name), and its size in grid samples."""
+
+    height_mm: float
+    from_height_mm: float
+    to_height_mm: float
+    angle_deg: float
+    side: str
+    peak_pa: float
+    samples: int
+
+    @property
+    def peak_mmhg(self) -> float:
+        return self.peak_pa / PA_PER_MMHG
+
+
+def find_hot_spots(rings: Rings, local_pa: np.ndarray, limit_pa: float, directions: dict[str, float]) -> list[HotSpot]:
+    """Connected regions of the (height x angle) grid where local pressure > limit, the
+    highest peak first.
 
     Regions are labelled with scipy.ndimage; a region crossing the angle seam (the first
-    and last columns) is one region: labels touching across it are merged.  Peak,
-    height extent and size per region come from ndimage reductions.
+    and last columns) is one region: the labels that touch across it are joined as
+    connected components of a graph (scipy.sparse.csgraph).  Peak, height extent and
+    size per region come from ndimage reductions.
     """
     above = local_pa > limit_pa
     labels, count = ndimage.label(above)
     if count == 0:
         return []
-    parent = np.arange(count + 1)
-
-    def root(label: int) -> int:
-        while parent[label] != label:
-            label = parent[label]
-        return label
-
     seam = above[:, 0] & above[:, -1]
-    for a, b in zip(labels[seam, 0], labels[seam, -1]):  # rows on the seam only
-        ra, rb = root(a), root(b)
-        parent[max(ra, rb)] = min(ra, rb)
-    merged = np.array([root(label) for label in range(count + 1)])[labels]
+    pairs = sparse.coo_matrix((np.ones(int(seam.sum())), (labels[seam, 0], labels[seam, -1])), shape=(count + 1, count + 1))
+    _, component = connected_components(pairs, directed=False)
+    merged = np.where(labels > 0, component[labels] + 1, 0)
     ids = np.unique(merged[merged > 0])
     rows = np.broadcast_to(np.arange(local_pa.shape[0])[:, None], local_pa.shape)
     peaks = ndimage.maximum_position(local_pa, merged, ids)
@@ -194,19 +208,18 @@ def find_hot_spots(rings: Rings, local_pa: np.ndarray, limit_pa: float, directio
     highest = ndimage.maximum(rows, merged, ids)
     sizes = ndimage.sum(above, merged, ids)
     spots = []
-    for (r, c), lo, hi, size in zip(peaks, lowest, highest, sizes):
+    for (r, c), lo, hi, size in zip(peaks, lowest, highest, sizes):  # one per region (a handful)
         angle = float(rings.angle[r, c])
-        spots.append({
-            "height_mm": float(rings.heights_mm[r]),
-            "from_height_mm": float(rings.heights_mm[int(lo)]),
-            "to_height_mm": float(rings.heights_mm[int(hi)]),
-            "angle_deg": float(np.degrees(angle)),
-            "side": sector_name(angle, directions),
-            "peak_mmHg": float(local_pa[r, c] / PA_PER_MMHG),
-            "peak_kPa": float(local_pa[r, c] / 1000),
-            "samples": int(size),
-        })
-    return sorted(spots, key=lambda spot: -spot["peak_mmHg"])
+        spots.append(HotSpot(
+            height_mm=float(rings.heights_mm[r]),
+            from_height_mm=float(rings.heights_mm[int(lo)]),
+            to_height_mm=float(rings.heights_mm[int(hi)]),
+            angle_deg=float(np.degrees(angle)),
+            side=sector_name(angle, directions),
+            peak_pa=float(local_pa[r, c]),
+            samples=int(size),
+        ))
+    return sorted(spots, key=lambda spot: -spot.peak_pa)
 
 
 def pressure_map(surface: NurbsSurface, design: dict, fabric: Fabric, n_around: int = 360) -> tuple[Rings, np.ndarray]:
