@@ -30,6 +30,8 @@ lint: install
 
 bench: install
 	$(BIN)/python benchmarks/bench_fit.py
+	$(BIN)/python benchmarks/bench_service.py
+	$(BIN)/python benchmarks/ratios.py
 
 openapi: install
 	$(BIN)/python -m app.openapi_export

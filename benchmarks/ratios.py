@@ -1,0 +1,43 @@
+"""The speed targets of issue 21 in one table, from the fit and service benchmarks of the
+same `make bench` run (benchmarks/results/fit.json and service.json).
+
+Run:  make bench   (bench_fit.py, bench_service.py, then this)
+Writes benchmarks/results/ratios.md.  Every number is a ratio of medians measured in the
+same run against a reference on the same data: trimesh's own load of the STL for the
+fit, the core's own load + fit of the same scan for the service.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+RESULTS = Path(__file__).resolve().parent / "results"
+#: upload -> record within this multiple of the core fit (issue 21, item 5)
+SERVICE_TARGET = 1.3
+
+
+def main() -> None:
+    fit = json.loads((RESULTS / "fit.json").read_text())["speed"]
+    service = json.loads((RESULTS / "service.json").read_text())
+    lines = [
+        "# Speed ratios (one `make bench` run)",
+        "",
+        "| what | median | reference (same run) | ratio | target | met |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in fit["load_ratios"]:
+        lines.append(f"| `calf-nurbs fit`, {row['faces']:,}-face leg | {row['fit_s'] * 1e3:.0f} ms | trimesh.load "
+                     f"{row['trimesh_load_s'] * 1e3:.0f} ms | {row['ratio']:.2f}x | < {row['target']:g}x | "
+                     f"{'yes' if row['ratio'] < row['target'] else 'no'} |")
+    for scan, seconds in service["upload_to_record_s"].items():
+        core = service["core_fit_s"][scan]
+        ratio = seconds / core
+        lines.append(f"| upload -> record, {scan} | {seconds * 1e3:.0f} ms | core load + fit {core * 1e3:.0f} ms | "
+                     f"{ratio:.2f}x | < {SERVICE_TARGET:g}x | {'yes' if ratio < SERVICE_TARGET else 'no'} |")
+    (RESULTS / "ratios.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+if __name__ == "__main__":
+    main()
