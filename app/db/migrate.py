@@ -4,19 +4,22 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from alembic import command
 from alembic.config import Config
 from alembic.runtime.migration import MigrationContext
 from alembic.script import ScriptDirectory
 
-from alembic import command
 from app.db.session import engine_for
 
-ROOT = Path(__file__).resolve().parents[2]
+#: the migrations ship inside the package (an installed wheel or image has no source tree)
+MIGRATIONS = Path(__file__).resolve().parent / "migrations"
 
 
 def alembic_config(url: str) -> Config:
-    config = Config(str(ROOT / "alembic.ini"))
-    config.set_main_option("script_location", str(ROOT / "alembic"))
+    """Alembic's configuration for ``url``, built in code: no alembic.ini is needed at run
+    time (the one in the source tree is for running ``alembic`` by hand)."""
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
     config.set_main_option("sqlalchemy.url", url.replace("%", "%%"))
     return config
 

@@ -9,7 +9,7 @@ Revision ID: 0004
 Revises: 0003
 Create Date: 2026-11-22
 """
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import sqlalchemy as sa
 from alembic import op
@@ -30,7 +30,7 @@ def upgrade() -> None:
         sa.Column("name", sa.String(100), nullable=False, unique=True),
         sa.Column("created_at", sa.DateTime(timezone=True), nullable=False),
     )
-    op.bulk_insert(tenants, [{"id": DEFAULT, "name": DEFAULT, "created_at": datetime.now(timezone.utc)}])
+    op.bulk_insert(tenants, [{"id": DEFAULT, "name": DEFAULT, "created_at": datetime.now(UTC)}])
     op.create_table(
         "api_keys",
         sa.Column("id", sa.String(32), primary_key=True),
