@@ -16,6 +16,7 @@ from app.api.problems import auth_problems, problems
 from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage, ScanPointsOut
 from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
 from app.errors import Unprocessable
+from app.services.cases import validate_case_ref
 from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
 from app.services.deviations import DeviationService
 from app.services.keys import Principal
@@ -31,7 +32,8 @@ router = APIRouter(prefix="/api/v1", tags=["records"], responses=auth_problems()
 
 
 def record_out(record) -> dict:
-    return {**record.body, "id": record.id, "source": record.source, "created_at": record.created_at, "scan_id": record.scan_id}
+    return {**record.body, "id": record.id, "source": record.source, "created_at": record.created_at, "scan_id": record.scan_id,
+            "case_ref": record.case_ref}
 
 
 def record_summary(record) -> dict:
@@ -39,6 +41,7 @@ def record_summary(record) -> dict:
         "id": record.id,
         "source": record.source,
         "side": record.side,
+        "case_ref": record.case_ref,
         "error_index": record.error_index,
         "created_at": record.created_at,
         "landmarks": record.body.get("landmarks", {}),
@@ -60,8 +63,9 @@ def _day(value: str, name: str) -> date:
         raise Unprocessable(f"{name} must be a calendar day YYYY-MM-DD, not {value!r}", code="invalid_request") from exc
 
 
-@router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination), by side and date",
-            responses=problems(s400="invalid_cursor", s422="invalid_request (not a calendar day, or until before since)"))
+@router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination), by side, case and date",
+            responses=problems(s400="invalid_cursor", s422="invalid_request (not a calendar day, or until before since), "
+                               "invalid_case_ref"))
 def list_records(
     limit: int = Query(50, ge=1, le=500),
     cursor: str | None = Query(None, pattern=r"^[A-Za-z0-9_=-]{1,200}$", description="next_cursor of the previous page"),
@@ -70,12 +74,14 @@ def list_records(
                               "(UTC), YYYY-MM-DD"),
     until: str | None = Query(None, pattern=DAY_PATTERN, description="only records created before the end of this "
                               "day (UTC), YYYY-MM-DD"),
+    case_ref: str | None = Query(None, description="only records of this case (the case reference of their upload)"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
     start = datetime.combine(_day(since, "since"), time.min, tzinfo=UTC) if since else None
     end = datetime.combine(_day(until, "until") + timedelta(days=1), time.min, tzinfo=UTC) if until else None
-    rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor, side, start, end)
+    rows, next_cursor = RecordService(session, principal.tenant_id).page(limit, cursor, side, start, end,
+                                                                         validate_case_ref(case_ref))
     return {"items": [record_summary(r) for r in rows], "next_cursor": next_cursor}
 
 

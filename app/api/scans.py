@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import asdict
 from typing import Literal
 
 from fastapi import APIRouter, Depends, Query, Request
@@ -13,9 +14,11 @@ from app.api.auth import authorize
 from app.api.deps import get_app_settings, get_runner, get_session, get_store
 from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.problems import auth_problems, problems
-from app.api.schemas import JobOut
+from app.api.schemas import ErasureOut, JobOut
 from app.geometry.scan import SUPPORTED_FORMATS
 from app.jobs.runner import EmbeddedRunner
+from app.services.cases import CASE_REF_PATTERN, validate_case_ref
+from app.services.erasure import ErasureService
 from app.services.fitting import parse_options
 from app.services.jobs import JobService
 from app.services.keys import Principal
@@ -48,6 +51,7 @@ UPLOAD_BODY = {
                         "points": {"type": "integer", "minimum": 4, "maximum": 36, "default": 15},
                         "mode": {"type": "string", "enum": ["paper", "lsq"], "default": "paper"},
                         "grid": {"type": "string", "pattern": GRID_PATTERN},
+                        "case_ref": {"type": "string", "pattern": CASE_REF_PATTERN},
                     },
                 }
             },
@@ -79,7 +83,7 @@ UPLOAD_BODY = {
             "CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES), implausible_size, not_a_leg, no_calf (no calf bulge), "
             "no_ankle / no_knee (the ankle or the knee waist is not in the scan: the detail says how far the "
             "scan reaches and what a re-scan must include), several_legs (the detail lists the legs found; "
-            "pass side), side_not_found, invalid_option",
+            "pass side), side_not_found, invalid_option, invalid_case_ref",
             s503="check_timeout (the upload check took too long) or runner_unavailable (its worker stopped twice)",
         ),
     },
@@ -95,6 +99,8 @@ async def upload_scan(
     grid: str | None = Query(None, pattern=GRID_PATTERN,
                              description="lsq control net ALONGxAROUND, e.g. 7x15 (default) or 12x24"),
     file_format: ScanFormat | None = Query(None, alias="format", description="scan format for application/octet-stream"),
+    case_ref: str | None = Query(None, description="the clinic's own pseudonymous case id (1-64 letters, digits, '.', "
+                                 "'_', '-'; never a name or a birth date): kept on the job and its record"),
     settings: Settings = Depends(get_app_settings),
     store: ScanStore = Depends(get_store),
     runner: EmbeddedRunner = Depends(get_runner),
@@ -110,6 +116,7 @@ async def upload_scan(
         options = parse_options(side or fields.get("side"), units or fields.get("units"),
                                 points if points is not None else fields.get("points"),
                                 mode or fields.get("mode"), grid or fields.get("grid"))
+        case = validate_case_ref(case_ref or fields.get("case_ref"))
     except BaseException:
         upload.discard()
         raise
@@ -119,13 +126,24 @@ async def upload_scan(
                       settings.max_scan_points, settings.max_scan_faces)
 
     async def check_and_queue(stage: Stage | None) -> JSONResponse:
-        queued = await flow.check_and_queue(upload, options, stage)
+        queued = await flow.check_and_queue(upload, options, stage, case)
         return JSONResponse(queued.body, status_code=202, headers={"Location": queued.location})
 
-    content = {"sha256": upload.sha256, "format": upload.file_format, "options": options}
+    content = {"sha256": upload.sha256, "format": upload.file_format, "options": options, "case_ref": case}
     try:
         return await answer_once(request, session, principal, idempotency, "upload_scan", content, check_and_queue,
                                  on_replay=upload.discard)
     except BaseException:  # a 409 for the key, a failed check or store: the received file goes
         upload.discard()
         raise
+
+
+@router.delete(
+    "/scans/{scan_id}",
+    response_model=ErasureOut,
+    summary="Erase a scan: its stored file, jobs, records, their designs and idempotent answers, in one transaction",
+    responses=problems(s404="scan_not_found", s409="job_running: a fit of this scan is running; erase it after"),
+)
+def erase_scan(scan_id: str, session: Session = Depends(get_session), store: ScanStore = Depends(get_store),
+               principal: Principal = Depends(authorize("upload"))):
+    return asdict(ErasureService(session, principal.tenant_id, store).erase_scan(scan_id))

@@ -89,12 +89,14 @@ class RecordOut(CalfRecordBody):
     source: str = Field(description="fit | import")
     created_at: datetime
     scan_id: str | None = None
+    case_ref: str | None = Field(None, description="the clinic's pseudonymous case id sent with the upload")
 
 
 class RecordSummary(BaseModel):
     id: str
     source: str
     side: str | None
+    case_ref: str | None = None
     error_index: float | None
     created_at: datetime
     landmarks: dict[str, Landmark]
@@ -127,6 +129,7 @@ class JobOut(BaseModel):
     stage_seconds: dict | None = Field(description="seconds per fitting stage, once succeeded")
     error: JobError | None
     record_id: str | None
+    case_ref: str | None = Field(None, description="the case reference sent with the upload")
     warnings: list[str] = Field(default_factory=list, description="the record's warnings, once the job has one: "
                                 "what the fit noticed (a given side the foot contradicts, the surface off the skin, "
                                 "landmarks at the scan's edge...)")
@@ -313,3 +316,14 @@ class ScanPointsOut(BaseModel):
     distance_mm: list[float] = Field(description="each point's distance to the surface, mm")
     median_distance_mm: float | None
     max_distance_mm: float | None
+
+
+class ErasureOut(BaseModel):
+    """What an erasure removed (rows per kind, stored files)."""
+
+    scans: int
+    jobs: int
+    records: int
+    designs: int
+    idempotency_entries: int = Field(description="stored answers to Idempotency-Key requests that named them")
+    files: int = Field(description="stored scan files deleted")

@@ -121,8 +121,11 @@ class Job(Base):
     #: the runner that holds a running job, until when (renewed while the fit runs)
     lease_owner: Mapped[str | None] = mapped_column(String(100))
     lease_expires_at: Mapped[datetime | None] = mapped_column(UTCDateTime())
+    #: the clinic's pseudonymous case reference sent with the upload (app.services.cases)
+    case_ref: Mapped[str | None] = mapped_column(String(64))
 
-    __table_args__ = (Index("ix_jobs_status_created", "status", "created_at"), Index("ix_jobs_tenant", "tenant_id"))
+    __table_args__ = (Index("ix_jobs_status_created", "status", "created_at"), Index("ix_jobs_tenant", "tenant_id"),
+                      Index("ix_jobs_tenant_case", "tenant_id", "case_ref"))
 
 
 class Record(Base):
@@ -139,8 +142,11 @@ class Record(Base):
     etag: Mapped[str] = mapped_column(String(64), nullable=False)
     body: Mapped[dict] = mapped_column(JSON, nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    #: the case reference of the upload the record was fitted from (or given on import)
+    case_ref: Mapped[str | None] = mapped_column(String(64))
 
-    __table_args__ = (Index("ix_records_tenant_created", "tenant_id", "created_at"),)
+    __table_args__ = (Index("ix_records_tenant_created", "tenant_id", "created_at"),
+                      Index("ix_records_tenant_case", "tenant_id", "case_ref"))
 
 
 class Design(Base):

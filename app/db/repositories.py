@@ -115,9 +115,9 @@ class ScanRepository(_Owned):
 class JobRepository(_Owned):
     model = Job
 
-    def add(self, scan_id: str, options: dict, placement: dict | None = None) -> Job:
+    def add(self, scan_id: str, options: dict, placement: dict | None = None, case_ref: str | None = None) -> Job:
         return _inserted(self.session, Job(tenant_id=self._owner(None), scan_id=scan_id, options=options,
-                                           placement=placement, status=JOB_QUEUED))
+                                           placement=placement, status=JOB_QUEUED, case_ref=case_ref))
 
     def claim_next(self, owner: str, lease_until: datetime, job_id: str | None = None,
                    per_tenant: int | None = None) -> Job | None:
@@ -224,10 +224,12 @@ class JobRepository(_Owned):
 class RecordRepository(_Owned):
     model = Record
 
-    def add(self, body: dict, etag: str, source: str, scan_id: str | None, owner: str | None = None) -> Record:
+    def add(self, body: dict, etag: str, source: str, scan_id: str | None, owner: str | None = None,
+            case_ref: str | None = None) -> Record:
         """A new record; ``owner`` is the tenant when the repository has none (the runner)."""
         return _inserted(self.session, Record(
             tenant_id=self._owner(owner),
+            case_ref=case_ref,
             body=body,
             etag=etag,
             source=source,
@@ -237,10 +239,12 @@ class RecordRepository(_Owned):
         ))
 
     def page(self, limit: int, after: tuple[datetime, str] | None, side: str | None = None,
-             since: datetime | None = None, until: datetime | None = None) -> list[Record]:
+             since: datetime | None = None, until: datetime | None = None, case_ref: str | None = None) -> list[Record]:
         """Newest first, keyset pagination on (created_at, id); optionally only one side
-        ("left", "right", or "unknown" for none) and created in [since, until)."""
+        ("left", "right", or "unknown" for none), one case, and created in [since, until)."""
         query = self._scoped(select(Record)).order_by(Record.created_at.desc(), Record.id.desc()).limit(limit)
+        if case_ref is not None:
+            query = query.where(Record.case_ref == case_ref)
         if side is not None:
             query = query.where(Record.side.is_(None) if side == "unknown" else Record.side == side)
         if since is not None:
@@ -302,3 +306,55 @@ class IdempotentRequestRepository(_Owned):
     def remove_expired(self, now: datetime) -> int:
         result = self.session.execute(self._scoped(delete(IdempotentRequest)).where(IdempotentRequest.expires_at < now))
         return result.rowcount or 0
+
+
+class ErasureRepository(_Owned):
+    """What erasing a scan or a case removes, found and deleted in the caller's
+    transaction (app.services.erasure owns it)."""
+
+    model = Scan
+
+    def jobs_of_scan(self, scan_id: str) -> list[Job]:
+        return list(self.session.scalars(self._scoped_to(Job, select(Job).where(Job.scan_id == scan_id))))
+
+    def records_of_scan(self, scan_id: str) -> list[Record]:
+        return list(self.session.scalars(self._scoped_to(Record, select(Record).where(Record.scan_id == scan_id))))
+
+    def jobs_of_case(self, case_ref: str) -> list[Job]:
+        return list(self.session.scalars(self._scoped_to(Job, select(Job).where(Job.case_ref == case_ref))))
+
+    def records_of_case(self, case_ref: str) -> list[Record]:
+        return list(self.session.scalars(self._scoped_to(Record, select(Record).where(Record.case_ref == case_ref))))
+
+    def design_ids_of(self, record_ids: list[str]) -> list[str]:
+        if not record_ids:
+            return []
+        return list(self.session.scalars(select(Design.id).where(Design.record_id.in_(record_ids))))
+
+    def remove(self, scan_ids: list[str], job_ids: list[str], record_ids: list[str], design_ids: list[str]) -> dict[str, int]:
+        """Delete the rows named and the idempotent answers that point at them (their
+        Location is the job, record or design); returns the rows removed per kind."""
+        locations = ([f"/api/v1/jobs/{i}" for i in job_ids] + [f"/api/v1/records/{i}" for i in record_ids]
+                     + [f"/api/v1/designs/{i}" for i in design_ids])
+        removed = {"idempotency_entries": 0, "designs": 0, "jobs": 0, "records": 0, "scans": 0}
+        if locations:
+            removed["idempotency_entries"] = self.session.execute(self._scoped_to(IdempotentRequest, delete(
+                IdempotentRequest).where(IdempotentRequest.location.in_(locations)))).rowcount or 0
+        if design_ids:
+            removed["designs"] = self.session.execute(delete(Design).where(Design.id.in_(design_ids))).rowcount or 0
+        if job_ids:
+            removed["jobs"] = self.session.execute(delete(Job).where(Job.id.in_(job_ids))).rowcount or 0
+        if record_ids:
+            self.session.execute(update(Job).where(Job.record_id.in_(record_ids)).values(record_id=None))
+            removed["records"] = self.session.execute(delete(Record).where(Record.id.in_(record_ids))).rowcount or 0
+        if scan_ids:
+            removed["scans"] = self.session.execute(delete(Scan).where(Scan.id.in_(scan_ids))).rowcount or 0
+        self.session.flush()
+        return removed
+
+    def sha256_still_stored(self, sha256: str) -> bool:
+        """Whether any tenant's scan row still names these bytes (the store is content-addressed)."""
+        return self.session.scalar(select(func.count()).select_from(Scan).where(Scan.sha256 == sha256)) > 0
+
+    def _scoped_to(self, model, query):
+        return query if self.tenant_id is None else query.where(model.tenant_id == self.tenant_id)

@@ -94,7 +94,8 @@ def succeed(sessions: sessionmaker[Session], owner: str, job_id: str, outcome: d
         jobs = JobRepository(session)
         job = jobs.get(job_id)
         body = outcome["record"]
-        record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id, owner=job.tenant_id)
+        record = RecordRepository(session).add(body, record_etag(body), "fit", job.scan_id, owner=job.tenant_id,
+                                               case_ref=job.case_ref)
         if jobs.succeed(job_id, owner, record.id, outcome["stage_seconds"]):
             session.commit()
             return True

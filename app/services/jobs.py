@@ -25,7 +25,8 @@ class JobService:
         self.jobs = JobRepository(session, tenant_id)
 
     def submit(self, upload: ReceivedUpload, options: dict, store: ScanStore, placement: dict | None = None,
-               before_commit: Callable[[Job, Scan, bool], None] | None = None) -> tuple[Job, Scan, bool]:
+               before_commit: Callable[[Job, Scan, bool], None] | None = None,
+               case_ref: str | None = None) -> tuple[Job, Scan, bool]:
         """Store the scan once (content-addressed) and queue a job; commits.
         ``before_commit(job, scan, reused)`` runs in the job's transaction (the
         idempotent answer is stored with the job).
@@ -52,7 +53,7 @@ class JobService:
             store.commit(upload.temp_path, upload.sha256)  # the stored file went missing: these bytes restore it
         else:
             upload.discard()
-        job = self.jobs.add(scan.id, options, placement)
+        job = self.jobs.add(scan.id, options, placement, case_ref)
         if before_commit is not None:
             before_commit(job, scan, reused)
         self.session.commit()
@@ -123,6 +124,7 @@ def job_view(job: Job, scan: Scan, reused: bool | None = None, warnings: list[st
         "stage_seconds": job.stage_seconds,
         "error": error,
         "record_id": job.record_id,
+        "case_ref": job.case_ref,
         "warnings": warnings or [],
         "links": links,
     }

@@ -74,11 +74,11 @@ class RecordService:
         self.records.delete(self.get(record_id))
 
     def page(self, limit: int, cursor: str | None, side: str | None = None, since: datetime | None = None,
-             until: datetime | None = None) -> tuple[list[Record], str | None]:
+             until: datetime | None = None, case_ref: str | None = None) -> tuple[list[Record], str | None]:
         after = decode_cursor(cursor) if cursor else None
         if since is not None and until is not None and until <= since:
             raise Unprocessable("until must be after since", code="invalid_request")
-        rows = self.records.page(limit + 1, after, side, since, until)
+        rows = self.records.page(limit + 1, after, side, since, until, case_ref)
         more = len(rows) > limit
         rows = rows[:limit]
         next_cursor = encode_cursor(rows[-1].created_at, rows[-1].id) if more and rows else None

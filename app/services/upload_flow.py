@@ -61,7 +61,8 @@ class UploadFlow:
     max_scan_points: int
     max_scan_faces: int
 
-    async def check_and_queue(self, upload: ReceivedUpload, options: dict, stage: Stage | None) -> QueuedUpload:
+    async def check_and_queue(self, upload: ReceivedUpload, options: dict, stage: Stage | None,
+                              case_ref: str | None = None) -> QueuedUpload:
         """Place the leg of ``upload`` in a worker, then store the scan and queue its job
         (the placement travels with the job, so the fit does not place it again).
         Raises FitFailure (the check's reason), Unavailable (check_timeout, the runner
@@ -94,6 +95,6 @@ class UploadFlow:
                 stage(202, answer["body"], f"/api/v1/jobs/{job.id}")
 
         job, _, _ = await run_in_threadpool(JobService(self.session, self.tenant_id).submit, upload, options,
-                                            self.store, placement, keep_answer)
+                                            self.store, placement, keep_answer, case_ref)
         await self.runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
         return QueuedUpload(answer["body"], f"/api/v1/jobs/{job.id}")

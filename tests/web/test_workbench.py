@@ -109,10 +109,12 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     sign_in(page, base, key)
     page.get_by_role("link", name="Upload").click()
     page.set_input_files("#scan-file", str(REAL / "bodyparts3d_right_leg.stl"))
+    page.get_by_label("Case reference").fill("CASE-WB-1")
     page.screenshot(path=str(shots / "upload.png"))
     page.get_by_role("button", name="Upload and fit").click()
     page.wait_for_url("**/#/records/*", timeout=120_000)
     page.locator("#measurement-sheet").wait_for()
+    expect(page.get_by_role("heading", level=1)).to_contain_text("case CASE-WB-1")
     page.locator("#record-viewer canvas").wait_for()
     expect(page.locator("#record-viewer .tag")).to_have_count(4, timeout=30_000)
     page.get_by_label("Error colours (distance to the scan)").check()
@@ -215,14 +217,15 @@ def test_on_a_tablet_the_screens_fit_and_the_keyboard_reaches_the_controls(serve
 
 def test_two_designs_side_by_side_and_two_records_compared(served, page):
     """Two designs of one record (classes II and I) side by side; the same leg uploaded
-    twice (paper and lsq) compared: the volume change and the difference map."""
+    twice (paper and lsq) under one case reference compared: the volume change and the
+    difference map."""
     import httpx
 
     base, key = served
     headers = {"X-API-Key": key}
     data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
     records = []
-    for params in ({}, {"mode": "lsq"}):
+    for params in ({"case_ref": "CASE-CMP"}, {"mode": "lsq", "case_ref": "CASE-CMP"}):
         job = httpx.post(f"{base}/api/v1/scans", content=data, params=params, timeout=60,
                          headers={**headers, "Content-Type": "model/stl"}).json()
         for _ in range(240):
@@ -244,6 +247,8 @@ def test_two_designs_side_by_side_and_two_records_compared(served, page):
     assert "class II" in text and "class I " in text
     page.screenshot(path=str(shots / "two-designs.png"), full_page=True)
     page.goto(f"{base}/#/records/{records[0]}")
+    # the same case and side only: the module's other uploads of this leg (no case) are not offered
+    expect(page.locator("#compare-with option")).to_have_count(1, timeout=30_000)
     page.get_by_label("Another record of this leg").select_option(records[1])
     page.get_by_role("button", name="Compare").click()
     page.locator("#volume-change").wait_for(timeout=30_000)

@@ -97,7 +97,8 @@ function uploadScreen() {
     out.replaceChildren();
     if (!file) { out.append(h('div', { class: 'error', role: 'alert', text: 'Choose a scan file first.' })); return; }
     const fields = { side: document.getElementById('side').value, units: document.getElementById('units').value,
-      mode: document.getElementById('mode').value, points: document.getElementById('points').value };
+      mode: document.getElementById('mode').value, points: document.getElementById('points').value,
+      case_ref: document.getElementById('case-ref').value.trim() };
     if (fields.mode === 'lsq') fields.grid = gridInput.value.trim();
     progress.hidden = false; progress.value = 0; phase.textContent = 'Uploading…';
     try {
@@ -127,7 +128,10 @@ function uploadScreen() {
   } },
   drop, fileInput, chosen,
   h('div', { class: 'grid-half' },
-    h('div', {}, ...select('side', 'Side (for a body or two legs)', [['', 'detect'], ['left', 'left'], ['right', 'right']]),
+    h('div', {}, h('label', { for: 'case-ref', text: 'Case reference (your pseudonymous case id, never a name)' }),
+      h('input', { id: 'case-ref', type: 'text', maxlength: 64, pattern: '[A-Za-z0-9][A-Za-z0-9._\\-]{0,63}', autocomplete: 'off',
+        placeholder: 'e.g. CASE-0042' }),
+      ...select('side', 'Side (for a body or two legs)', [['', 'detect'], ['left', 'left'], ['right', 'right']]),
       ...select('units', 'Units of the file', [['', 'detect from size'], ['mm', 'mm'], ['cm', 'cm'], ['m', 'm'], ['in', 'inches']])),
     h('div', {}, ...select('mode', 'Surface', [['paper', 'paper (7 layers, interpolated)'], ['lsq', 'least squares (all points)']]),
       h('label', { for: 'points', text: 'Feature points per layer (paper)' }), h('input', { id: 'points', type: 'number', min: 4, max: 36, value: 15 }),
@@ -178,8 +182,12 @@ async function recordsScreen(params) {
 // ---------------------------------------------------------------- record
 async function recordScreen(id) {
   const record = await api(`/records/${id}`);
-  const [measure, designs, others] = await Promise.all([api(`/records/${id}/measurements`), api(`/records/${id}/designs`),
-    api(`/records?limit=50${record.side ? `&side=${record.side}` : ''}`)]);
+  // "another record of this leg": the same case and the same side only (a record without a
+  // case reference has no other record of its leg that the service could vouch for)
+  const sameCase = record.case_ref
+    ? api(`/records?limit=50&case_ref=${encodeURIComponent(record.case_ref)}&side=${record.side || 'unknown'}`)
+    : Promise.resolve({ items: [] });
+  const [measure, designs, others] = await Promise.all([api(`/records/${id}/measurements`), api(`/records/${id}/designs`), sameCase]);
   const viewerBox = h('div', { class: 'viewer', id: 'record-viewer', 'data-label': 'The NURBS calf surface over the scan points' });
   const legend = h('div', { class: 'legend' });
   const toggles = h('div', { class: 'toolbar' });
@@ -201,8 +209,9 @@ async function recordScreen(id) {
   const compareCard = h('div', { class: 'card' }, h('h2', { text: 'Compare over time' }),
     sameLeg.length ? [h('label', { for: 'compare-with', text: 'Another record of this leg' }), compareSelect,
       h('button', { class: 'secondary', type: 'button', text: 'Compare', onclick: () => { location.hash = `#/compare/${id}/${compareSelect.value}`; } })]
-      : h('p', { class: 'muted', text: 'No other record of this side yet.' }));
-  show(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}` }),
+      : h('p', { class: 'muted', text: record.case_ref ? `No other record of case ${record.case_ref}, ${record.side || 'unknown'} side, yet.`
+        : 'This record has no case reference: upload with a case reference to compare one leg over time.' }));
+  show(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}${record.case_ref ? ` · case ${record.case_ref}` : ''}` }),
     record.warnings?.length ? h('div', { class: 'card warn' }, h('ul', {}, record.warnings.map((w) => h('li', { text: w })))) : null,
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, toggles, legend), profileBox),
       h('div', {}, sheet, downloads, designList, compareCard)));

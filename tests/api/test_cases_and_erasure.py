@@ -1,0 +1,78 @@
+"""Case references on uploads and records, and erasure of a scan or a whole case
+(app.services.cases, app.services.erasure)."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.errors import Unprocessable
+from app.services.cases import validate_case_ref
+from tests.api.conftest import wait_for_job
+from tests.conftest import REAL
+
+LEG = REAL / "bodyparts3d_right_leg.stl"
+
+
+@pytest.mark.parametrize("value", ["CASE-0042", "12345678", "k.17_b", "a"])
+def test_pseudonymous_case_references_are_kept(value):
+    assert validate_case_ref(value) == value
+
+
+@pytest.mark.parametrize("value", ["Doe Jane", "1961-03-04", "04.03.1961", "-x", "x" * 65, "Müller", "a/b"])
+def test_names_dates_and_odd_characters_are_refused_without_repeating_them(value):
+    with pytest.raises(Unprocessable) as info:
+        validate_case_ref(value)
+    assert info.value.code == "invalid_case_ref" and value not in info.value.detail
+
+
+def _upload(client, case_ref: str | None, data: bytes, **params) -> dict:
+    params = {"points": 8, **params, **({"case_ref": case_ref} if case_ref else {})}
+    answer = client.post("/api/v1/scans", content=data, params=params, headers={"Content-Type": "model/stl"})
+    assert answer.status_code == 202, answer.text
+    job = wait_for_job(client, answer.headers["location"])
+    assert job["status"] == "succeeded", job
+    return job
+
+
+def test_a_case_is_listed_and_erased_with_its_scans_records_designs_jobs_and_answers(service_client):
+    client = service_client()
+    data = LEG.read_bytes()
+    job = _upload(client, "CASE-7", data)
+    assert job["case_ref"] == "CASE-7"
+    record = client.get(f"/api/v1/records/{job['record_id']}").json()
+    assert record["case_ref"] == "CASE-7"
+    design = client.post(f"/api/v1/records/{record['id']}/designs", json={"fabric": {"stiffness_n_per_cm": 10}},
+                         headers={"Idempotency-Key": "design-of-case-7"})
+    assert design.status_code == 201, design.text
+    # another case: the same leg with another 80-byte binary STL header (other bytes, another scan)
+    other = _upload(client, "CASE-8", b"case 8".ljust(80, b"\0") + data[80:])
+    listed = client.get("/api/v1/records", params={"case_ref": "CASE-7"}).json()["items"]
+    assert [r["id"] for r in listed] == [record["id"]] and listed[0]["case_ref"] == "CASE-7"
+    assert client.get("/api/v1/records", params={"case_ref": "Doe Jane"}).status_code == 422
+
+    erased = client.delete("/api/v1/cases/CASE-7")
+    assert erased.status_code == 200, erased.text
+    assert erased.json() == {"scans": 1, "jobs": 1, "records": 1, "designs": 1, "idempotency_entries": 1, "files": 1}
+    assert client.get(f"/api/v1/records/{record['id']}").status_code == 404
+    assert client.get(f"/api/v1/jobs/{job['id']}").status_code == 404
+    assert client.get(f"/api/v1/designs/{design.json()['id']}").status_code == 404
+    assert client.delete("/api/v1/cases/CASE-7").status_code == 404  # nothing left of it
+    # the other case is untouched, and the same bytes uploaded again are a new scan
+    assert client.get(f"/api/v1/records/{other['record_id']}").status_code == 200
+    again = _upload(client, "CASE-7", data)
+    assert again["scan_id"] != job["scan_id"] and again["scan_sha256"] == job["scan_sha256"]
+
+
+def test_erasing_a_scan_removes_its_file_and_everything_made_from_it(service_client, tmp_path):
+    client = service_client()
+    job = _upload(client, None, LEG.read_bytes())
+    stored = list((tmp_path / "scans").rglob(job["scan_sha256"]))
+    assert stored, "the scan file is stored under the data folder"
+    erased = client.delete(f"/api/v1/scans/{job['scan_id']}")
+    assert erased.status_code == 200, erased.text
+    report = erased.json()
+    assert (report["scans"], report["jobs"], report["records"], report["files"]) == (1, 1, 1, 1)
+    assert not any(path.exists() for path in stored)
+    assert client.get(f"/api/v1/records/{job['record_id']}").status_code == 404
+    missing = client.delete(f"/api/v1/scans/{job['scan_id']}")
+    assert missing.status_code == 404 and missing.headers["content-type"].startswith("application/problem+json")
