@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from dataclasses import asdict
 
-from fastapi import APIRouter, Depends
+from fastapi import APIRouter, Depends, Path
 from sqlalchemy.orm import Session
 
 from app.api.auth import authorize
 from app.api.deps import get_session, get_store
 from app.api.problems import auth_problems, problems
 from app.api.schemas import ErasureOut
+from app.services.cases import CASE_REF_PATTERN
 from app.services.erasure import ErasureService
 from app.services.keys import Principal
 from app.services.storage import ScanStore
@@ -27,6 +28,7 @@ router = APIRouter(prefix="/api/v1", tags=["cases"], responses=auth_problems())
     responses=problems(s404="case_not_found", s409="job_running: a fit of the case is running; erase it after",
                        s422="invalid_case_ref"),
 )
-def erase_case(case_ref: str, session: Session = Depends(get_session), store: ScanStore = Depends(get_store),
+def erase_case(case_ref: str = Path(..., pattern=CASE_REF_PATTERN, description="the case reference"),
+               session: Session = Depends(get_session), store: ScanStore = Depends(get_store),
                principal: Principal = Depends(authorize("upload"))):
     return asdict(ErasureService(session, principal.tenant_id, store).erase_case(case_ref))

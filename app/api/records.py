@@ -16,7 +16,7 @@ from app.api.problems import auth_problems, problems
 from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage, ScanPointsOut
 from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
 from app.errors import Unprocessable
-from app.services.cases import validate_case_ref
+from app.services.cases import CASE_REF_PATTERN, validate_case_ref
 from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
 from app.services.deviations import DeviationService
 from app.services.keys import Principal
@@ -74,7 +74,8 @@ def list_records(
                               "(UTC), YYYY-MM-DD"),
     until: str | None = Query(None, pattern=DAY_PATTERN, description="only records created before the end of this "
                               "day (UTC), YYYY-MM-DD"),
-    case_ref: str | None = Query(None, description="only records of this case (the case reference of their upload)"),
+    case_ref: str | None = Query(None, pattern=CASE_REF_PATTERN,
+                                 description="only records of this case (the case reference of their upload)"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):

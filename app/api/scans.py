@@ -99,7 +99,8 @@ async def upload_scan(
     grid: str | None = Query(None, pattern=GRID_PATTERN,
                              description="lsq control net ALONGxAROUND, e.g. 7x15 (default) or 12x24"),
     file_format: ScanFormat | None = Query(None, alias="format", description="scan format for application/octet-stream"),
-    case_ref: str | None = Query(None, description="the clinic's own pseudonymous case id (1-64 letters, digits, '.', "
+    case_ref: str | None = Query(None, pattern=CASE_REF_PATTERN,
+                                 description="the clinic's own pseudonymous case id (1-64 letters, digits, '.', "
                                  "'_', '-'; never a name or a birth date): kept on the job and its record"),
     settings: Settings = Depends(get_app_settings),
     store: ScanStore = Depends(get_store),
