@@ -36,6 +36,7 @@ EPILOG = """examples:
   calf-nurbs export leg.json --format step -o leg.step  # the exact B-spline (calf frame, mm)
   calf-nurbs export leg.json --format glb -o leg.glb    # a mesh in the scan's coordinates
   calf-nurbs design leg.json --standard RAL --class II --stiffness 10
+  calf-nurbs size leg.json --chart example             # ready-to-wear size, or made to measure
   calf-nurbs keys create --tenant clinic-a
   calf-nurbs serve --port 8000
 
@@ -255,6 +256,42 @@ def _cmd_design(args: argparse.Namespace) -> int:
         return _fail(exc)
 
 
+def _cmd_size(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
+    from app.geometry.garment.size_charts import record_chart_measures, size_chart_dict_from_csv, size_chart_from_dict, size_decision
+    from app.services.size_charts import example_chart
+
+    try:
+        record = _load_record(args.record)
+        if args.chart == "example":
+            chart = example_chart()
+        else:
+            text = Path(args.chart).read_text()
+            chart = size_chart_from_dict(size_chart_dict_from_csv(text) if args.chart.lower().endswith(".csv") else json.loads(text))
+    except FitFailure as exc:
+        return _fail(exc)
+    except OSError as exc:
+        return _file_failure(exc)
+    except json.JSONDecodeError as exc:
+        from app.geometry.errors import FailureReason
+
+        return _fail(FitFailure(FailureReason.INVALID_TARGET, f"the chart is not JSON: {exc.msg} (line {exc.lineno})"))
+    decision = size_decision(chart, record_chart_measures(record.landmarks, record.scan.get("sole_mm")))
+    if args.json:
+        print(json.dumps({"chart": chart.product, **asdict(decision)}, indent=2))
+    else:
+        print(f"{chart.product} ({chart.stocking_type}): {decision.decision}")
+        if decision.best:
+            print(f"  fits: {', '.join(decision.fitting)}; best {decision.best}")
+        for check in decision.outside:
+            print(f"  {check.point} {check.measured_mm:.0f} mm is {abs(check.excess_mm):.0f} mm "
+                  f"{'above' if check.excess_mm > 0 else 'below'} size {decision.nearest} ({check.low_mm:g}-{check.high_mm:g})")
+        if decision.missing:
+            print(f"  not in the record: {', '.join(decision.missing)}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     from app.geometry.garment.design import DEFAULT_CLASS, DEFAULT_HOT_SPOT_MMHG, DEFAULT_STANDARD, DEFAULT_STIFFNESS_N_PER_CM
     from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
@@ -320,6 +357,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help=f"local pressure hot-spot limit, mmHg ({DEFAULT_HOT_SPOT_MMHG:g})")
     design.add_argument("--json", action="store_true", help="print the whole design as JSON")
     design.set_defaults(func=_cmd_design)
+
+    size = sub.add_parser("size", help="the ready-to-wear size decision of a record on a size chart")
+    size.add_argument("record")
+    size.add_argument("--chart", default="example",
+                      help="a chart file (.json, or .csv with size,point,min_mm,max_mm) or 'example' (ANSUR II-derived)")
+    size.add_argument("--json", action="store_true", help="print the decision with every size's checks as JSON")
+    size.set_defaults(func=_cmd_size)
     return parser
 
 

@@ -11,7 +11,7 @@ from fastapi.middleware.cors import CORSMiddleware
 from fastapi.openapi.utils import get_openapi
 
 from app import __version__
-from app.api import cases, comparisons, designs, health, jobs, metrics, populations, records, scans, web
+from app.api import cases, comparisons, designs, health, jobs, metrics, populations, records, scans, size_charts, web
 from app.api.guard import HeadAsGetMiddleware, RequestGuardMiddleware
 from app.api.middleware import RequestContextMiddleware
 from app.api.problems import add_problem_schema, install_problem_handlers
@@ -121,7 +121,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.add_middleware(RequestGuardMiddleware)
     # outermost: every response (CORS preflights and problems too) carries the request id
     app.add_middleware(RequestContextMiddleware, metrics=app.state.metrics)
-    for module in (scans, jobs, records, cases, comparisons, populations, designs, health, metrics, web):
+    for module in (scans, jobs, records, cases, comparisons, populations, designs, size_charts, health, metrics, web):
         app.include_router(module.router)
     app.mount("/web", web.static_files(), name="web")
     app.add_middleware(web.SecurityHeadersMiddleware)

@@ -97,3 +97,19 @@ def test_help_lists_examples_formats_classes_and_exit_codes(capsys):
                  "BS 1, 2, 3", "exit codes:"):
         assert part in text
     assert "``" not in text
+
+
+def test_size_decides_on_the_example_chart_and_on_a_csv_chart(record_path, tmp_path, capsys):
+    assert main(["size", str(record_path), "--json"]) == 0
+    decision = json.loads(capsys.readouterr().out)
+    assert "EXAMPLE" in decision["chart"] and decision["decision"] in ("ready_to_wear", "made_to_measure")
+    record = json.loads(record_path.read_text())
+    tape_b = record["landmarks"]["B"]["tape_girth_mm"]
+    chart = tmp_path / "chart.csv"  # one size just too small at B: made to measure, by how much
+    chart.write_text(f"# product: test\n# type: AD\nsize,point,min_mm,max_mm\nS,cB,150,{tape_b - 4:.3f}\n")
+    assert main(["size", str(record_path), "--chart", str(chart)]) == 0
+    out = capsys.readouterr().out
+    assert "made_to_measure" in out and "4 mm above size S" in out
+    chart.write_text("# product: test\n# type: XX\nsize,point,min_mm,max_mm\nS,cB,1,2\n")
+    assert main(["size", str(record_path), "--chart", str(chart)]) == 3
+    assert "type must be one of AD, AG" in json.loads(capsys.readouterr().err)["detail"]

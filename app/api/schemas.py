@@ -327,3 +327,37 @@ class ErasureOut(BaseModel):
     designs: int
     idempotency_entries: int = Field(description="stored answers to Idempotency-Key requests that named them")
     files: int = Field(description="stored scan files deleted")
+
+
+class SizeChartOut(BaseModel):
+    """A ready-to-wear size chart: ranges [min, max] in mm per RAL-GZ 387 point."""
+
+    id: str
+    example: bool = Field(description="the shipped example (derived from ANSUR II; not a manufacturer's chart)")
+    product: str
+    type: str = Field(description="AD knee-high | AG thigh-high")
+    source: str
+    sizes: list[dict]
+    links: dict[str, str]
+
+
+class PointCheckOut(BaseModel):
+    point: str
+    measured_mm: float
+    low_mm: float
+    high_mm: float
+    excess_mm: float = Field(description="below the range (negative), above it (positive), 0 inside")
+
+
+class SizeDecisionOut(BaseModel):
+    record_id: str
+    chart: dict
+    measures_mm: dict[str, float] = Field(description="the record's chart points: tape girths cB..cD, and lengths "
+                                          "lB..lD from the floor when the foot is in the scan")
+    decision: str = Field(description="ready_to_wear | made_to_measure | not_measured")
+    fitting: list[str] = Field(description="the sizes that fit at every point, best first")
+    best: str | None
+    nearest: str | None = Field(description="the size the leg is nearest to (the best, or the one to compare with)")
+    outside: list[PointCheckOut] = Field(description="made to measure: the nearest size's points outside their ranges")
+    missing: list[str] = Field(description="points the chart needs that the record does not measure")
+    checks: dict[str, list[PointCheckOut]] = Field(description="every size's points against its ranges")

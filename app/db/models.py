@@ -188,3 +188,18 @@ class IdempotentRequest(Base):
     expires_at: Mapped[datetime] = mapped_column(UTCDateTime(), nullable=False)
     __table_args__ = (UniqueConstraint("tenant_id", "key", name="uq_idempotent_requests_tenant_key"),
                       Index("ix_idempotent_requests_expires", "expires_at"))
+
+
+class SizeChartRow(Base):
+    """A ready-to-wear size chart registered by a tenant (app.geometry.garment.size_charts)."""
+
+    __tablename__ = "size_charts"
+
+    id: Mapped[str] = mapped_column(String(32), primary_key=True, default=new_id)
+    tenant_id: Mapped[str] = _tenant_column()
+    product: Mapped[str] = mapped_column(String(100), nullable=False)
+    stocking_type: Mapped[str] = mapped_column(String(2), nullable=False)
+    body: Mapped[dict] = mapped_column(JSON, nullable=False)
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+
+    __table_args__ = (Index("ix_size_charts_tenant", "tenant_id"),)

@@ -12,7 +12,7 @@ from datetime import datetime
 from sqlalchemy import and_, delete, func, or_, select, text, update
 from sqlalchemy.orm import Session, aliased
 
-from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, Tenant, utcnow
+from app.db.models import ApiKey, Design, IdempotentRequest, Job, Record, Scan, SizeChartRow, Tenant, utcnow
 
 JOB_QUEUED, JOB_RUNNING, JOB_SUCCEEDED, JOB_FAILED = "queued", "running", "succeeded", "failed"
 
@@ -358,3 +358,14 @@ class ErasureRepository(_Owned):
 
     def _scoped_to(self, model, query):
         return query if self.tenant_id is None else query.where(model.tenant_id == self.tenant_id)
+
+
+class SizeChartRepository(_Owned):
+    model = SizeChartRow
+
+    def add(self, product: str, stocking_type: str, body: dict) -> SizeChartRow:
+        return _inserted(self.session, SizeChartRow(tenant_id=self._owner(None), product=product,
+                                                    stocking_type=stocking_type, body=body))
+
+    def all(self) -> list[SizeChartRow]:
+        return list(self.session.scalars(self._scoped(select(SizeChartRow)).order_by(SizeChartRow.created_at)))

@@ -10,6 +10,7 @@ to docs/screenshots/ (the README shows them) - the suite rewrites no tracked fil
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -115,6 +116,10 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     page.wait_for_url("**/#/records/*", timeout=120_000)
     page.locator("#measurement-sheet").wait_for()
     expect(page.get_by_role("heading", level=1)).to_contain_text("case CASE-WB-1")
+    # the ready-to-wear check on the shipped example chart says which, in words the API agrees with
+    page.get_by_label("Size chart").select_option("example-ansur2-ad")
+    page.get_by_role("button", name="Check the sizes").click()
+    expect(page.locator("#size-decision")).to_contain_text(re.compile("ready to wear|made to measure"), timeout=30_000)
     page.locator("#record-viewer canvas").wait_for()
     expect(page.locator("#record-viewer .tag")).to_have_count(4, timeout=30_000)
     page.get_by_label("Error colours (distance to the scan)").check()

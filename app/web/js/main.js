@@ -180,6 +180,31 @@ async function recordsScreen(params) {
 }
 
 // ---------------------------------------------------------------- record
+// ready to wear or made to measure: the record's tape girths against a size chart
+function sizeDecisionView(d) {
+  if (d.decision === 'ready_to_wear') {
+    const others = d.fitting.filter((name) => name !== d.best);
+    return [h('p', {}, h('span', { class: 'badge pass', text: 'ready to wear' }), ` Size ${d.best} fits at every point`
+      + (others.length ? ` (also: ${others.join(', ')})` : '') + '.')];
+  }
+  if (d.decision === 'not_measured') {
+    return [h('p', {}, h('span', { class: 'badge review', text: 'not measured' }), ` The record does not measure ${d.missing.join(', ')}.`)];
+  }
+  return [h('p', {}, h('span', { class: 'badge fail', text: 'made to measure' }), ` No size fits; nearest is ${d.nearest}:`),
+    h('ul', {}, d.outside.map((c) => h('li', { text: `${c.point} ${c.measured_mm.toFixed(0)} mm is ${Math.abs(c.excess_mm).toFixed(0)} mm `
+      + `${c.excess_mm > 0 ? 'above' : 'below'} its range ${c.low_mm}-${c.high_mm} mm` })))];
+}
+
+function sizeCard(id, charts) {
+  const chartSelect = h('select', { id: 'size-chart' }, charts.map((c) => h('option', { value: c.id, text: c.product })));
+  const out = h('div', { id: 'size-decision', 'aria-live': 'polite' });
+  return h('div', { class: 'card' }, h('h2', { text: 'Ready-to-wear size' }),
+    h('label', { for: 'size-chart', text: 'Size chart' }), chartSelect,
+    h('button', { class: 'secondary', type: 'button', text: 'Check the sizes', onclick: () => guarded(async () => {
+      out.replaceChildren(...sizeDecisionView(await api(`/records/${id}/size-decision?chart=${encodeURIComponent(chartSelect.value)}`)));
+    }) }), out);
+}
+
 async function recordScreen(id) {
   const record = await api(`/records/${id}`);
   // "another record of this leg": the same case and the same side only (a record without a
@@ -187,7 +212,8 @@ async function recordScreen(id) {
   const sameCase = record.case_ref
     ? api(`/records?limit=50&case_ref=${encodeURIComponent(record.case_ref)}&side=${record.side || 'unknown'}`)
     : Promise.resolve({ items: [] });
-  const [measure, designs, others] = await Promise.all([api(`/records/${id}/measurements`), api(`/records/${id}/designs`), sameCase]);
+  const [measure, designs, others, charts] = await Promise.all([api(`/records/${id}/measurements`), api(`/records/${id}/designs`),
+    sameCase, api('/size-charts')]);
   const viewerBox = h('div', { class: 'viewer', id: 'record-viewer', 'data-label': 'The NURBS calf surface over the scan points' });
   const legend = h('div', { class: 'legend' });
   const toggles = h('div', { class: 'toolbar' });
@@ -214,7 +240,7 @@ async function recordScreen(id) {
   show(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}${record.case_ref ? ` · case ${record.case_ref}` : ''}` }),
     record.warnings?.length ? h('div', { class: 'card warn' }, h('ul', {}, record.warnings.map((w) => h('li', { text: w })))) : null,
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, toggles, legend), profileBox),
-      h('div', {}, sheet, downloads, designList, compareCard)));
+      h('div', {}, sheet, downloads, sizeCard(id, charts), designList, compareCard)));
   await Promise.all([draw3d(record, viewerBox, toggles, legend), drawProfile(record, profileBox)]);
 }
 

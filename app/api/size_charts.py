@@ -1,0 +1,75 @@
+"""Ready-to-wear size charts: register (JSON or CSV), list, read; a record's size decision."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+from fastapi import APIRouter, Depends, Query, Request, Response
+from sqlalchemy.orm import Session
+
+from app.api.auth import authorize
+from app.api.deps import get_session
+from app.api.problems import auth_problems, problems
+from app.api.schemas import SizeChartOut, SizeDecisionOut
+from app.errors import BadRequest, PayloadTooLarge, UnsupportedMediaType, from_fit_failure
+from app.geometry.errors import FitFailure
+from app.geometry.garment.size_charts import size_chart_dict_from_csv
+from app.services.keys import Principal
+from app.services.size_charts import MAX_CHART_BYTES, SizeChartService, chart_view
+
+router = APIRouter(prefix="/api/v1", tags=["size charts"], responses=auth_problems())
+
+CHART_BODY = {"requestBody": {"required": True, "description": "the chart as JSON ({product, type: AD|AG, source?, sizes: "
+              "[{name, ranges: {cB: [min, max], ...}}]}) or as CSV ('# product: ...', '# type: AD' lines, then the "
+              "columns size, point, min_mm, max_mm)",
+              "content": {"application/json": {"schema": {"type": "object"}}, "text/csv": {"schema": {"type": "string"}}}}}
+
+
+@router.post("/size-charts", status_code=201, response_model=SizeChartOut, openapi_extra=CHART_BODY,
+             summary="Register a ready-to-wear size chart (JSON or CSV)",
+             responses=problems(s400="bad_request: not UTF-8 JSON / CSV", s413="payload_too_large: over 64 kB",
+                                s415="unsupported_media_type",
+                                s422="invalid_target: the chart's fault, named"))
+async def register_chart(request: Request, response: Response, session: Session = Depends(get_session),
+                         principal: Principal = Depends(authorize("design"))):
+    media = (request.headers.get("content-type") or "").split(";")[0].strip().lower()
+    raw = await request.body()
+    if len(raw) > MAX_CHART_BYTES:
+        raise PayloadTooLarge(f"a size chart is at most {MAX_CHART_BYTES // 1024} kB")
+    try:
+        text = raw.decode("utf-8")
+        data = json.loads(text) if media == "application/json" else size_chart_dict_from_csv(text) if media == "text/csv" else None
+    except (UnicodeDecodeError, json.JSONDecodeError, csv.Error) as exc:
+        raise BadRequest("the chart is not UTF-8 JSON or CSV") from exc
+    except FitFailure as failure:
+        raise from_fit_failure(failure) from failure
+    if data is None:
+        raise UnsupportedMediaType("send the chart as application/json or text/csv")
+    service = SizeChartService(session, principal.tenant_id)
+    row = service.register(data)
+    chart, example = service.get(row.id)
+    response.headers["Location"] = f"/api/v1/size-charts/{row.id}"
+    return chart_view(row.id, chart, example)
+
+
+@router.get("/size-charts", response_model=list[SizeChartOut],
+            summary="Your clinic's size charts, after the shipped example (ANSUR II-derived, labelled as an example)")
+def list_charts(session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
+    return SizeChartService(session, principal.tenant_id).listing()
+
+
+@router.get("/size-charts/{chart_id}", response_model=SizeChartOut, summary="A size chart",
+            responses=problems(s404="size_chart_not_found"))
+def get_chart(chart_id: str, session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
+    chart, example = SizeChartService(session, principal.tenant_id).get(chart_id)
+    return chart_view(chart_id, chart, example)
+
+
+@router.get("/records/{record_id}/size-decision", response_model=SizeDecisionOut,
+            summary="Which sizes of a chart fit the leg at every point, the best one, or made to measure with each "
+                    "point outside its range and by how much",
+            responses=problems(s404="record_not_found, size_chart_not_found"))
+def decide_size(record_id: str, chart: str = Query(..., description="a size chart id (example-ansur2-ad: the example)"),
+                session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
+    return SizeChartService(session, principal.tenant_id).decide(record_id, chart)
