@@ -72,6 +72,27 @@ def sign_in(page, base, key):
     page.wait_for_url("**/#/records")
 
 
+def coloured_share(page, selector: str) -> float:
+    """Of the WebGL canvas's drawn pixels (every 3rd pixel that differs from the grey
+    background), the share whose colour is far from grey (max - min channel over 80 of 255)."""
+    return page.evaluate("""(selector) => {
+        const source = document.querySelector(selector + ' canvas');
+        const copy = document.createElement('canvas');
+        copy.width = source.width; copy.height = source.height;
+        const ctx = copy.getContext('2d');
+        ctx.drawImage(source, 0, 0);
+        const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+        let drawn = 0, coloured = 0;
+        for (let i = 0; i < data.length; i += 4 * 3) {
+            if (Math.abs(data[i] - 238) + Math.abs(data[i + 1] - 241) + Math.abs(data[i + 2] - 245) <= 30) continue;
+            drawn++;
+            const hi = Math.max(data[i], data[i + 1], data[i + 2]), lo = Math.min(data[i], data[i + 1], data[i + 2]);
+            if (hi - lo > 80) coloured++;
+        }
+        return drawn ? coloured / drawn : 0;
+    }""", selector)
+
+
 def canvas_has_a_picture(page, selector: str) -> bool:
     """The WebGL canvas is not blank: many pixels differ from the background."""
     return page.evaluate("""(selector) => {
@@ -125,6 +146,14 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     page.get_by_label("Error colours (distance to the scan)").check()
     page.wait_for_timeout(500)
     assert canvas_has_a_picture(page, "#record-viewer")
+    # the scan points alone, coloured by their error, must stand out from the grey (a ramp
+    # starting at white was invisible there at the small errors most points have)
+    page.get_by_label("Surface", exact=True).uncheck()
+    page.wait_for_timeout(500)
+    # (measured: 54% of the drawn pixels with this ramp, 28% with the white-start one; the rest
+    # are the points' antialiased edges)
+    assert coloured_share(page, "#record-viewer") > 0.4
+    page.get_by_label("Surface", exact=True).check()
     sheet = page.locator("#measurement-sheet").inner_text()
     for name in ("B", "B1", "C", "D"):
         assert page.locator(f"#measurement-sheet tr[data-landmark={name}]").count() == 1

@@ -297,7 +297,10 @@ async function draw3d(record, box, toggles, legend) {
     return viewer;
   }
   const points = new Float32Array(scan.points.flat());
-  const top = Math.max(1, scan.max_distance_mm ? Math.min(scan.max_distance_mm, 5) : 1);
+  // the scale's top is the 95th percentile of the distances (at least 0.5 mm): a few stray
+  // points far off would otherwise push every other point to the bottom colour
+  const sorted = [...scan.distance_mm].sort((a, b) => a - b);
+  const top = Math.max(0.5, sorted.length ? sorted[Math.floor(0.95 * (sorted.length - 1))] : 1);
   const errColours = new Float32Array(scan.distance_mm.flatMap((d) => colour('error', d / top)));
   viewer.points('scan', points, null, 2);
   viewer.visible('scan', false);

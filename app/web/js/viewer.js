@@ -8,8 +8,10 @@ function loadThree() {
 }
 
 export const colormaps = {
-  // error: white (0) -> orange -> dark red (top); pressure: viridis-like ramp; diverging: blue - white - red
-  error: [[0, [0.93, 0.95, 0.97]], [0.5, [0.99, 0.62, 0.27]], [1, [0.6, 0.05, 0.05]]],
+  // error: dark blue (0) -> teal -> amber -> red (top), saturated everywhere so that small
+  // errors stay visible on the grey background (a white start vanished there);
+  // pressure: viridis-like ramp; diverging: blue - white - red
+  error: [[0, [0.10, 0.20, 0.70]], [0.35, [0.05, 0.60, 0.60]], [0.7, [0.98, 0.72, 0.10]], [1, [0.80, 0.08, 0.08]]],
   pressure: [[0, [0.27, 0.0, 0.33]], [0.25, [0.23, 0.32, 0.55]], [0.5, [0.13, 0.57, 0.55]], [0.75, [0.37, 0.79, 0.38]], [1, [0.99, 0.91, 0.14]]],
   diverging: [[0, [0.23, 0.30, 0.75]], [0.5, [0.87, 0.87, 0.87]], [1, [0.71, 0.02, 0.15]]],
 };
