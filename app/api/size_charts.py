@@ -14,16 +14,33 @@ from app.api.problems import auth_problems, problems
 from app.api.schemas import SizeChartOut, SizeDecisionOut
 from app.errors import BadRequest, PayloadTooLarge, UnsupportedMediaType, from_fit_failure
 from app.geometry.errors import FitFailure
-from app.geometry.garment.size_charts import size_chart_dict_from_csv
+from app.geometry.garment.size_charts import CHART_POINTS, MAX_SIZES, STOCKING_TYPES, size_chart_dict_from_csv
 from app.services.keys import Principal
 from app.services.size_charts import MAX_CHART_BYTES, SizeChartService, chart_view
 
 router = APIRouter(prefix="/api/v1", tags=["size charts"], responses=auth_problems())
 
-CHART_BODY = {"requestBody": {"required": True, "description": "the chart as JSON ({product, type: AD|AG, source?, sizes: "
-              "[{name, ranges: {cB: [min, max], ...}}]}) or as CSV ('# product: ...', '# type: AD' lines, then the "
-              "columns size, point, min_mm, max_mm)",
-              "content": {"application/json": {"schema": {"type": "object"}}, "text/csv": {"schema": {"type": "string"}}}}}
+#: the chart's JSON form (app.geometry.garment.size_charts); cross-field rules (min < max,
+#: unique size names) are checked by the service and answered 422 with the fault named
+_RANGE = {"type": "array", "items": {"type": "number", "exclusiveMinimum": 0, "maximum": 2500}, "minItems": 2, "maxItems": 2,
+          "description": "[min, max] in mm"}
+CHART_SCHEMA = {
+    "type": "object",
+    "required": ["product", "type", "sizes"],
+    "properties": {
+        "product": {"type": "string", "minLength": 1, "maxLength": 100},
+        "type": {"type": "string", "enum": list(STOCKING_TYPES), "description": "AD knee-high, AG thigh-high"},
+        "source": {"type": "string", "maxLength": 500},
+        "sizes": {"type": "array", "minItems": 1, "maxItems": MAX_SIZES, "items": {
+            "type": "object", "required": ["name", "ranges"],
+            "properties": {"name": {"type": "string", "minLength": 1, "maxLength": 40},
+                           "ranges": {"type": "object", "minProperties": 1, "additionalProperties": False,
+                                      "properties": {point: _RANGE for point in CHART_POINTS}}}}},
+    },
+}
+CHART_BODY = {"requestBody": {"required": True, "description": "the chart as JSON, or as CSV ('# product: ...', "
+              "'# type: AD' lines, then the columns size, point, min_mm, max_mm)",
+              "content": {"application/json": {"schema": CHART_SCHEMA}, "text/csv": {"schema": {"type": "string"}}}}}
 
 
 @router.post("/size-charts", status_code=201, response_model=SizeChartOut, openapi_extra=CHART_BODY,

@@ -44,7 +44,10 @@ SEMANTIC_STATUSES = {"POST /api/v1/scans": ("400", "415", "422"), "POST /api/v1/
                      # duplicate ids, records that cannot be refitted, a grid out of bounds
                      "POST /api/v1/populations": ("422",),
                      # two different legs, calves that share too little once aligned
-                     "GET /api/v1/records/{record_a}/compare/{record_b}": ("422",)}
+                     "GET /api/v1/records/{record_a}/compare/{record_b}": ("422",),
+                     # a chart's cross-field rules (min < max, unique size names) and a CSV
+                     # body's table (its columns are content, not schema)
+                     "POST /api/v1/size-charts": ("400", "422")}
 CONFIG = "\n".join(
     f'[[operations]]\ninclude-name = "{name}"\n[operations.checks.positive_data_acceptance]\n'
     f'expected-statuses = {["2xx", "401", "403", "404", "409", "429", *statuses]!r}\n'.replace("'", '"')

@@ -94,7 +94,10 @@ def size_chart_from_dict(data: dict) -> SizeChart:
         sizes.append(ChartSize(name, parsed))
     if len({s.name for s in sizes}) != len(sizes):
         raise bad("size names must be unique")
-    return SizeChart(product, kind, tuple(sizes), str(data.get("source") or ""))
+    source = data.get("source", "")
+    if not isinstance(source, str) or len(source) > 500:
+        raise bad("source must be a text of at most 500 characters")
+    return SizeChart(product, kind, tuple(sizes), source)
 
 
 def size_chart_dict_from_csv(text: str) -> dict:
