@@ -324,3 +324,40 @@ def test_explicit_targets_and_the_classes_of_each_standard(served, page):
     page.wait_for_url("**/#/designs/*", timeout=60_000)
     page.locator("#design-verdict").wait_for()
     assert page.console_errors == []
+
+
+def test_every_screen_fits_a_phone_without_sideways_scrolling(served, browser):
+    """At 390 px wide (a phone), no screen is wider than the window: sign-in, records,
+    upload, a record, its design form, a design and the comparison of two designs."""
+    import httpx
+
+    base, key = served
+    headers = {"X-API-Key": key}
+    job = httpx.post(f"{base}/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(), timeout=60,
+                     params={"points": 8}, headers={**headers, "Content-Type": "model/stl"}).json()
+    for _ in range(240):
+        job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
+        if job["status"] in ("succeeded", "failed"):
+            break
+        time.sleep(0.5)
+    record = job["record_id"]
+    designs = [httpx.post(f"{base}/api/v1/records/{record}/designs", headers=headers, timeout=60,
+                          json={"compression_class": cls, "fabric": {"stiffness_n_per_cm": 10}}).json()["id"] for cls in ("II", "I")]
+    context = browser.new_context(viewport={"width": 390, "height": 844})
+    phone = context.new_page()
+    try:
+        phone.goto(f"{base}/")
+        widths = {"sign-in": phone.evaluate("document.documentElement.scrollWidth")}
+        sign_in(phone, base, key)
+        for name, hash_, ready in [("records", "#/records", "main table, main p"), ("upload", "#/upload", "#scan-file"),
+                                   ("record", f"#/records/{record}", "#measurement-sheet"),
+                                   ("design form", f"#/records/{record}/design", "#compression-class"),
+                                   ("design", f"#/designs/{designs[0]}", "svg.chart"),
+                                   ("two designs", f"#/designs/{designs[0]}/vs/{designs[1]}", "svg.chart")]:
+            phone.goto(f"{base}/{hash_}")
+            phone.locator(ready).first.wait_for(timeout=60_000)
+            phone.wait_for_timeout(300)
+            widths[name] = phone.evaluate("document.documentElement.scrollWidth")
+        assert {name: w for name, w in widths.items() if w > 390} == {}, widths
+    finally:
+        context.close()
