@@ -63,11 +63,9 @@ async def register_chart(request: Request, response: Response, session: Session 
         raise from_fit_failure(failure) from failure
     if data is None:
         raise UnsupportedMediaType("send the chart as application/json or text/csv")
-    service = SizeChartService(session, principal.tenant_id)
-    row = service.register(data)
-    chart, example = service.get(row.id)
+    row, chart = SizeChartService(session, principal.tenant_id).register(data)
     response.headers["Location"] = f"/api/v1/size-charts/{row.id}"
-    return chart_view(row.id, chart, example)
+    return chart_view(row.id, chart, example=False)
 
 
 @router.get("/size-charts", response_model=list[SizeChartOut],

@@ -38,8 +38,10 @@ class _Owned:
         self.session = session
         self.tenant_id = tenant_id
 
-    def _scoped(self, query):
-        return query if self.tenant_id is None else query.where(self.model.tenant_id == self.tenant_id)
+    def _scoped(self, query, model=None):
+        """``query`` limited to the tenant's rows of ``model`` (the repository's own by default)."""
+        model = model or self.model
+        return query if self.tenant_id is None else query.where(model.tenant_id == self.tenant_id)
 
     def get(self, row_id: str):
         row = self.session.get(self.model, row_id)
@@ -315,16 +317,26 @@ class ErasureRepository(_Owned):
     model = Scan
 
     def jobs_of_scan(self, scan_id: str) -> list[Job]:
-        return list(self.session.scalars(self._scoped_to(Job, select(Job).where(Job.scan_id == scan_id))))
+        return list(self.session.scalars(self._scoped(select(Job).where(Job.scan_id == scan_id), Job)))
 
     def records_of_scan(self, scan_id: str) -> list[Record]:
-        return list(self.session.scalars(self._scoped_to(Record, select(Record).where(Record.scan_id == scan_id))))
+        return list(self.session.scalars(self._scoped(select(Record).where(Record.scan_id == scan_id), Record)))
 
     def jobs_of_case(self, case_ref: str) -> list[Job]:
-        return list(self.session.scalars(self._scoped_to(Job, select(Job).where(Job.case_ref == case_ref))))
+        return list(self.session.scalars(self._scoped(select(Job).where(Job.case_ref == case_ref), Job)))
 
     def records_of_case(self, case_ref: str) -> list[Record]:
-        return list(self.session.scalars(self._scoped_to(Record, select(Record).where(Record.case_ref == case_ref))))
+        return list(self.session.scalars(self._scoped(select(Record).where(Record.case_ref == case_ref), Record)))
+
+    def scans_only_of_case(self, scan_ids: set[str], case_ref: str) -> list[Scan]:
+        """The scans among ``scan_ids`` that no job or record of another case (or of none) uses."""
+        if not scan_ids:
+            return []
+        shared = set(self.session.scalars(select(Job.scan_id).where(
+            Job.scan_id.in_(scan_ids), Job.case_ref.is_distinct_from(case_ref))))
+        shared |= set(self.session.scalars(select(Record.scan_id).where(
+            Record.scan_id.in_(scan_ids), Record.case_ref.is_distinct_from(case_ref))))
+        return list(self.session.scalars(self._scoped(select(Scan).where(Scan.id.in_(scan_ids - shared)))))
 
     def design_ids_of(self, record_ids: list[str]) -> list[str]:
         if not record_ids:
@@ -338,8 +350,8 @@ class ErasureRepository(_Owned):
                      + [f"/api/v1/designs/{i}" for i in design_ids])
         removed = {"idempotency_entries": 0, "designs": 0, "jobs": 0, "records": 0, "scans": 0}
         if locations:
-            removed["idempotency_entries"] = self.session.execute(self._scoped_to(IdempotentRequest, delete(
-                IdempotentRequest).where(IdempotentRequest.location.in_(locations)))).rowcount or 0
+            removed["idempotency_entries"] = self.session.execute(self._scoped(delete(IdempotentRequest).where(
+                IdempotentRequest.location.in_(locations)), IdempotentRequest)).rowcount or 0
         if design_ids:
             removed["designs"] = self.session.execute(delete(Design).where(Design.id.in_(design_ids))).rowcount or 0
         if job_ids:
@@ -355,9 +367,6 @@ class ErasureRepository(_Owned):
     def sha256_still_stored(self, sha256: str) -> bool:
         """Whether any tenant's scan row still names these bytes (the store is content-addressed)."""
         return self.session.scalar(select(func.count()).select_from(Scan).where(Scan.sha256 == sha256)) > 0
-
-    def _scoped_to(self, model, query):
-        return query if self.tenant_id is None else query.where(model.tenant_id == self.tenant_id)
 
 
 class SizeChartRepository(_Owned):

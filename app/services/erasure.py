@@ -63,13 +63,8 @@ class ErasureService:
         records = self.erasure.records_of_case(case_ref)
         if not jobs and not records:
             raise NotFound("no records or jobs with this case reference", code="case_not_found")
-        scans = []
-        for scan_id in sorted({j.scan_id for j in jobs} | {r.scan_id for r in records if r.scan_id}):
-            others = [j for j in self.erasure.jobs_of_scan(scan_id) if j.case_ref != case_ref] + \
-                     [r for r in self.erasure.records_of_scan(scan_id) if r.case_ref != case_ref]
-            scan = self.scans.get(scan_id)
-            if not others and scan is not None:
-                scans.append((scan.id, scan.sha256))
+        used = {j.scan_id for j in jobs} | {r.scan_id for r in records if r.scan_id}
+        scans = [(s.id, s.sha256) for s in self.erasure.scans_only_of_case(used, case_ref)]
         return self._erase(scans, jobs, records)
 
     def _erase(self, scans: list[tuple[str, str]], jobs: list[Job], records: list[Record]) -> ErasureReport:

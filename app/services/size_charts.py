@@ -41,14 +41,15 @@ class SizeChartService:
         self.charts = SizeChartRepository(session, tenant_id)
         self.records = RecordService(session, tenant_id)
 
-    def register(self, data: dict) -> SizeChartRow:
+    def register(self, data: dict) -> tuple[SizeChartRow, SizeChart]:
+        """Validate and store a chart; commits.  Returns the row and the chart."""
         try:
             chart = size_chart_from_dict(data)
         except FitFailure as failure:
             raise from_fit_failure(failure) from failure
         row = self.charts.add(chart.product, chart.stocking_type, size_chart_as_dict(chart))
         self.session.commit()
-        return row
+        return row, chart
 
     def get(self, chart_id: str) -> tuple[SizeChart, bool]:
         """(chart, is the shipped example)."""

@@ -76,3 +76,14 @@ def test_erasing_a_scan_removes_its_file_and_everything_made_from_it(service_cli
     assert client.get(f"/api/v1/records/{job['record_id']}").status_code == 404
     missing = client.delete(f"/api/v1/scans/{job['scan_id']}")
     assert missing.status_code == 404 and missing.headers["content-type"].startswith("application/problem+json")
+
+
+def test_a_scan_another_case_also_used_stays_when_one_case_is_erased(service_client):
+    client = service_client()
+    data = LEG.read_bytes()
+    first, second = _upload(client, "CASE-A", data), _upload(client, "CASE-B", data)
+    assert first["scan_id"] == second["scan_id"]  # the same bytes: one stored scan
+    erased = client.delete("/api/v1/cases/CASE-A").json()
+    assert (erased["scans"], erased["files"], erased["jobs"], erased["records"]) == (0, 0, 1, 1)
+    assert client.get(f"/api/v1/records/{second['record_id']}").status_code == 200
+    assert client.delete("/api/v1/cases/CASE-B").json()["files"] == 1  # the last case takes the file with it

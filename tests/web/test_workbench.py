@@ -72,19 +72,26 @@ def sign_in(page, base, key):
     page.wait_for_url("**/#/records")
 
 
+#: JavaScript: the RGBA bytes of the WebGL canvas under ``selector`` as ``data``, and the
+#: test ``background(i)`` for the viewer's grey (#eef1f5) at byte offset i
+_CANVAS_DATA_JS = """
+    const source = document.querySelector(selector + ' canvas');
+    const copy = document.createElement('canvas');
+    copy.width = source.width; copy.height = source.height;
+    const ctx = copy.getContext('2d');
+    ctx.drawImage(source, 0, 0);
+    const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    const background = (i) => Math.abs(data[i] - 238) + Math.abs(data[i + 1] - 241) + Math.abs(data[i + 2] - 245) <= 30;
+"""
+
+
 def coloured_share(page, selector: str) -> float:
     """Of the WebGL canvas's drawn pixels (every 3rd pixel that differs from the grey
     background), the share whose colour is far from grey (max - min channel over 80 of 255)."""
-    return page.evaluate("""(selector) => {
-        const source = document.querySelector(selector + ' canvas');
-        const copy = document.createElement('canvas');
-        copy.width = source.width; copy.height = source.height;
-        const ctx = copy.getContext('2d');
-        ctx.drawImage(source, 0, 0);
-        const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    return page.evaluate("""(selector) => {""" + _CANVAS_DATA_JS + """
         let drawn = 0, coloured = 0;
         for (let i = 0; i < data.length; i += 4 * 3) {
-            if (Math.abs(data[i] - 238) + Math.abs(data[i + 1] - 241) + Math.abs(data[i + 2] - 245) <= 30) continue;
+            if (background(i)) continue;
             drawn++;
             const hi = Math.max(data[i], data[i + 1], data[i + 2]), lo = Math.min(data[i], data[i + 1], data[i + 2]);
             if (hi - lo > 80) coloured++;
@@ -94,18 +101,10 @@ def coloured_share(page, selector: str) -> float:
 
 
 def canvas_has_a_picture(page, selector: str) -> bool:
-    """The WebGL canvas is not blank: many pixels differ from the background."""
-    return page.evaluate("""(selector) => {
-        const source = document.querySelector(selector + ' canvas');
-        const copy = document.createElement('canvas');
-        copy.width = source.width; copy.height = source.height;
-        const ctx = copy.getContext('2d');
-        ctx.drawImage(source, 0, 0);
-        const data = ctx.getImageData(0, 0, copy.width, copy.height).data;
+    """The WebGL canvas is not blank: many pixels (of every 7th) differ from the background."""
+    return page.evaluate("""(selector) => {""" + _CANVAS_DATA_JS + """
         let differing = 0;
-        for (let i = 0; i < data.length; i += 4 * 7) {
-            if (Math.abs(data[i] - 238) + Math.abs(data[i + 1] - 241) + Math.abs(data[i + 2] - 245) > 30) differing++;
-        }
+        for (let i = 0; i < data.length; i += 4 * 7) if (!background(i)) differing++;
         return differing > 500;
     }""", selector)
 
