@@ -129,6 +129,7 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     base, key = served
     sign_in(page, base, key)
     page.get_by_role("link", name="Upload").click()
+    page.locator("#scan-file").wait_for()
     page.set_input_files("#scan-file", str(REAL / "bodyparts3d_right_leg.stl"))
     page.get_by_label("Case reference").fill("CASE-WB-1")
     page.screenshot(path=str(shots / "upload.png"))
@@ -289,6 +290,27 @@ def test_two_designs_side_by_side_and_two_records_compared(served, page):
     expect(page.locator(".legend #diff-ramp")).to_have_count(1, timeout=30_000)
     assert canvas_has_a_picture(page, "#difference-viewer")
     page.screenshot(path=str(shots / "compare.png"))
+    assert page.console_errors == []
+
+
+def test_a_screen_left_while_it_loads_does_not_paint_over_the_next(served, page):
+    """A slow answer for the screen the user has left must not replace the one they went
+    to: here the records list answers 2 s late (the browser's fetch delayed, the server is
+    real) and the upload form, opened meanwhile, stays (it used to be overwritten by the
+    records table, and the next step found no file input)."""
+    base, key = served
+    page.add_init_script("""
+        const realFetch = window.fetch;
+        window.fetch = (url, init) => String(url).includes('/records?limit=20')
+          ? new Promise((resolve) => setTimeout(resolve, 2000)).then(() => realFetch(url, init))
+          : realFetch(url, init);
+    """)
+    sign_in(page, base, key)
+    page.get_by_role("link", name="Upload").click()
+    page.locator("#scan-file").wait_for()
+    page.wait_for_timeout(3000)  # the late records list has arrived by now
+    expect(page.get_by_role("heading", level=1)).to_have_text("Upload a scan")
+    assert page.locator("#scan-file").count() == 1
     assert page.console_errors == []
 
 

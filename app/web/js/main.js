@@ -30,6 +30,16 @@ function show(...nodes) {
   main.focus({ preventScroll: true });
 }
 
+// Each navigation is one generation; a screen still waiting on the API when the user has
+// moved on must not paint over the screen that replaced it (a slow records list used to
+// overwrite the upload form opened meanwhile).  An async screen takes its `present` at its
+// start, while the generation is still its own.
+let generation = 0;
+function presenter() {
+  const mine = generation;
+  return (...nodes) => { if (mine === generation) show(...nodes); return mine === generation; };
+}
+
 function problemBox(error) {
   const p = error instanceof ApiError ? error.problem : { title: 'Error', detail: String(error) };
   return h('div', { class: 'error', role: 'alert' }, h('strong', { text: p.title || 'Error' }), h('div', { text: p.detail || '' }),
@@ -37,6 +47,7 @@ function problemBox(error) {
 }
 
 async function guarded(render) {
+  const present = presenter();
   try {
     await render();
   } catch (error) {
@@ -45,7 +56,7 @@ async function guarded(render) {
       location.hash = '#/sign-in';
       return;
     }
-    show(h('h1', { text: 'Something went wrong' }), problemBox(error));
+    present(h('h1', { text: 'Something went wrong' }), problemBox(error));
   }
 }
 
@@ -142,6 +153,7 @@ function uploadScreen() {
 
 // ---------------------------------------------------------------- records
 async function recordsScreen(params) {
+  const present = presenter();
   const query = new URLSearchParams({ limit: '20' });
   for (const k of ['side', 'since', 'until', 'cursor']) if (params.get(k)) query.set(k, params.get(k));
   const page = await api(`/records?${query}`);
@@ -175,7 +187,7 @@ async function recordsScreen(params) {
     h('tbody', {}, rows));
   const back = params.get('cursor') ? h('a', { class: 'button', href: '#/records', text: 'First page' }) : null;
   const next = page.next_cursor ? h('a', { class: 'button', href: `#/records?${new URLSearchParams({ ...Object.fromEntries(params), cursor: page.next_cursor })}`, text: 'Next page' }) : null;
-  show(h('h1', { text: 'Records' }), filter, h('div', { class: 'card' }, page.items.length ? table : h('p', { class: 'muted', text: 'No records yet: upload a scan.' }),
+  present(h('h1', { text: 'Records' }), filter, h('div', { class: 'card' }, page.items.length ? table : h('p', { class: 'muted', text: 'No records yet: upload a scan.' }),
     h('div', { class: 'pager' }, back, next)));
 }
 
@@ -206,6 +218,7 @@ function sizeCard(id, charts) {
 }
 
 async function recordScreen(id) {
+  const present = presenter();
   const record = await api(`/records/${id}`);
   // "another record of this leg": the same case and the same side only (a record without a
   // case reference has no other record of its leg that the service could vouch for)
@@ -237,10 +250,10 @@ async function recordScreen(id) {
       h('button', { class: 'secondary', type: 'button', text: 'Compare', onclick: () => { location.hash = `#/compare/${id}/${compareSelect.value}`; } })]
       : h('p', { class: 'muted', text: record.case_ref ? `No other record of case ${record.case_ref}, ${record.side || 'unknown'} side, yet.`
         : 'This record has no case reference: upload with a case reference to compare one leg over time.' }));
-  show(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}${record.case_ref ? ` · case ${record.case_ref}` : ''}` }),
+  if (!present(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}${record.case_ref ? ` · case ${record.case_ref}` : ''}` }),
     record.warnings?.length ? h('div', { class: 'card warn' }, h('ul', {}, record.warnings.map((w) => h('li', { text: w })))) : null,
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, toggles, legend), profileBox),
-      h('div', {}, sheet, downloads, sizeCard(id, charts), designList, compareCard)));
+      h('div', {}, sheet, downloads, sizeCard(id, charts), designList, compareCard)))) return;
   await Promise.all([draw3d(record, viewerBox, toggles, legend), drawProfile(record, profileBox)]);
 }
 
@@ -329,6 +342,7 @@ async function drawProfile(record, box) {
 
 // ---------------------------------------------------------------- design form
 async function designForm(recordId) {
+  const present = presenter();
   const options = (id, values) => h('select', { id }, values.map(([v, t]) => h('option', { value: v, text: t })));
   const kind = options('target-kind', [['class', 'a compression class'], ['explicit', 'explicit targets']]);
   const standard = options('standard', [['RAL', 'RAL-GZ 387'], ['BS', 'BS 6612'], ['AFNOR', 'NF G30-102']]);
@@ -367,7 +381,7 @@ async function designForm(recordId) {
       h('label', { for: 'fabric-table', text: 'Tension-strain table' }), table,
       h('label', { for: 'hot-limit', text: 'Hot spot above, mmHg' }), limit)),
   h('button', { class: 'primary', type: 'submit', text: 'Design the stocking' }), out);
-  show(h('h1', { text: 'New stocking design' }), h('p', {}, h('a', { href: `#/records/${recordId}`, text: '← back to the record' })), form);
+  present(h('h1', { text: 'New stocking design' }), h('p', {}, h('a', { href: `#/records/${recordId}`, text: '← back to the record' })), form);
 }
 
 // ---------------------------------------------------------------- design result
@@ -400,6 +414,7 @@ function designSummary(design) {
 }
 
 async function designScreen(id) {
+  const present = presenter();
   const design = await api(`/designs/${id}`);
   const record = await api(`/records/${design.record_id}`);
   const viewerBox = h('div', { class: 'viewer', id: 'pressure-viewer', 'data-label': 'Local skin pressure on the leg' });
@@ -416,8 +431,8 @@ async function designScreen(id) {
       onclick: () => guarded(() => download(`/designs/${id}/knitting-spec`, `knitting-${id.slice(0, 8)}.csv`)) }),
     h('div', { class: 'scroll' }, h('table', { id: 'knitting-spec' }, h('thead', {}, h('tr', {}, columns.map((c) => h('th', { class: 'num', text: c.replaceAll('_', ' ') })))),
       h('tbody', {}, design.knitting_spec.map((row) => h('tr', {}, columns.map((c) => h('td', { class: 'num', text: typeof row[c] === 'number' ? row[c].toFixed(c === 'strain' ? 3 : 1) : row[c] }))))))));
-  show(h('h1', { text: 'Stocking design' }), h('p', {}, h('a', { href: `#/records/${design.record_id}`, text: '← back to the record' })),
-    h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend), hotList), h('div', { class: 'card' }, designSummary(design))), spec);
+  if (!present(h('h1', { text: 'Stocking design' }), h('p', {}, h('a', { href: `#/records/${design.record_id}`, text: '← back to the record' })),
+    h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend), hotList), h('div', { class: 'card' }, designSummary(design))), spec)) return;
   // the pressure map: rings x angles grid in the calf frame (CSV), coloured by local pressure
   const csv = await api(`/designs/${id}/pressure-map?format=csv`, { accept: 'text/csv' });
   const rows = csv.trim().split('\n').slice(1).map((line) => line.split(',').map(Number));
@@ -446,21 +461,23 @@ async function designScreen(id) {
 }
 
 async function twoDesigns(a, b) {
+  const present = presenter();
   const [da, db] = await Promise.all([api(`/designs/${a}`), api(`/designs/${b}`)]);
   const column = (d) => h('div', { class: 'card' }, h('h2', {}, h('a', { href: `#/designs/${d.id}`, text: `${d.inputs.standard} ${d.inputs.compression_class ?? 'targets'}, fabric ${d.inputs.fabric.stiffness_n_per_cm ? `K ${d.inputs.fabric.stiffness_n_per_cm} N/cm` : 'table'}` })),
     designSummary(d), h('p', { text: `${d.hot_spots.length} hot spots` }));
-  show(h('h1', { text: 'Two designs side by side' }), h('div', { class: 'grid-half' }, column(da), column(db)));
+  present(h('h1', { text: 'Two designs side by side' }), h('div', { class: 'grid-half' }, column(da), column(db)));
 }
 
 // ---------------------------------------------------------------- comparison
 async function compareScreen(a, b) {
+  const present = presenter();
   const result = await api(`/records/${a}/compare/${b}`);
   const g = result.girths;
   const csv = await api(`/records/${a}/compare/${b}?format=csv`, { accept: 'text/csv' });
   const viewerBox = h('div', { class: 'viewer', id: 'difference-viewer', 'data-label': 'Signed difference between the two records' });
   const legend = h('div', { class: 'legend' });
   const v = result.volume;
-  show(h('h1', { text: 'Two records of one leg compared' }),
+  present(h('h1', { text: 'Two records of one leg compared' }),
     h('p', {}, h('a', { href: `#/records/${a}`, text: 'first record' }), ' → ', h('a', { href: `#/records/${b}`, text: 'second record' }), ` (aligned at ${result.align})`),
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend)),
       h('div', { class: 'card' }, h('h2', { text: 'Volume between B and D' }),
@@ -487,6 +504,7 @@ async function route() {
   document.getElementById('nav').hidden = !apiKey.get();
   if (!apiKey.get() && parts[0] !== 'sign-in') { location.hash = '#/sign-in'; return; }
   status('');
+  generation += 1;
   await guarded(async () => {
     if (parts[0] === 'sign-in') return signIn();
     if (parts[0] === 'upload') return uploadScreen();
