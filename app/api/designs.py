@@ -15,13 +15,16 @@ from app.api.deps import get_session
 from app.api.idempotency import IDEMPOTENCY_PROBLEMS, REPLAYED, Stage, answer_once, idempotency_key
 from app.api.negotiation import negotiate
 from app.api.problems import auth_problems, problems
-from app.api.schemas import DesignOut, DesignRequest
+from app.api.schemas import DesignOut, DesignRequest, OrderOut
 from app.errors import NotFound
 from app.services import charts
 from app.services.designs import DesignService, color_scale, design_view, knitting_csv, pressure_grid, pressure_map_csv, pressure_map_glb
 from app.services.keys import Principal
+from app.services.order_pdf import order_pdf
+from app.services.orders import OrderService
 
 PRESSURE_MAP_MEDIA = {"glb": "model/gltf-binary", "csv": "text/csv"}
+ORDER_MEDIA = {"json": "application/json", "pdf": "application/pdf"}
 
 router = APIRouter(prefix="/api/v1", tags=["designs"], responses=auth_problems())
 
@@ -118,3 +121,21 @@ async def get_chart(design_id: str, name: str, session: Session = Depends(get_se
         return charts.map_chart(design.result, rings, local, top)
 
     return Response(await run_in_threadpool(draw), media_type="image/png")
+
+
+@router.get("/designs/{design_id}/order", response_model=OrderOut,
+            summary="The order of a design: JSON, or PDF with a leg diagram (Accept or ?format=)",
+            responses={200: {"content": {"application/pdf": {}}, "description": "the order"},
+                       **problems(s404="design_not_found, size_chart_not_found", s406="not_acceptable")})
+async def get_order(design_id: str, request: Request,
+                    chart: str | None = Query(None, max_length=64,
+                                              description="size chart for the ready-to-wear decision (default: the shipped example)"),
+                    file_format: Literal["json", "pdf"] | None = Query(None, alias="format", description="overrides Accept"),
+                    session: Session = Depends(get_session), principal: Principal = Depends(authorize("read", "design"))):
+    fmt = negotiate(request.headers.get("accept"), file_format, ORDER_MEDIA, "the order")
+    order = await run_in_threadpool(OrderService(session, principal.tenant_id).order, design_id, chart)
+    if fmt == "json":
+        return order
+    body = await run_in_threadpool(order_pdf, order)
+    return Response(body, media_type="application/pdf",
+                    headers={"Content-Disposition": f'attachment; filename="order-{design_id[:12]}.pdf"'})

@@ -13,6 +13,7 @@ from app.geometry.garment.design import (
     DEFAULT_RESOLUTION_MM,
     DEFAULT_STANDARD,
     DEFAULT_STEP_MM,
+    DEFAULT_TOE,
 )
 from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
 from app.records.codec import MAX_CONTROL_MM, MAX_NET
@@ -217,12 +218,14 @@ class DesignRequest(BaseModel):
                            "(and at the landmarks)")
     resolution_mm: float = Field(DEFAULT_RESOLUTION_MM, ge=0.01, le=10,
                                  description="resolution of the relaxed circumferences L0 (0.01-10 mm)")
+    toe: Literal["closed", "open"] = Field(DEFAULT_TOE, description="the stocking's toe, carried to the order")
 
 
 class DesignOut(BaseModel):
     model_config = ConfigDict(extra="allow")
     id: str
     record_id: str
+    case_ref: str | None = Field(None, description="the case reference of the record it was made from")
     created_at: datetime
     inputs: dict
     landmarks: dict
@@ -236,6 +239,53 @@ class DesignOut(BaseModel):
     hot_spots: list
     knitting_spec: list
     links: dict[str, str]
+
+
+class OrderMeasurement(BaseModel):
+    point: str = Field(description="RAL-GZ 387 letter: cA, cY, cB ... cG (circumferences), lB ... lG (from the floor), foot_length")
+    kind: Literal["circumference", "length"]
+    description: str
+    needed: bool = Field(description="the stocking type's order form asks for it")
+    value_mm: float | None = Field(description="tape girth or length from the floor; null when not measured (see reason)")
+    height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
+    reason: str | None = Field(description="why there is no value")
+
+
+class OrderStocking(BaseModel):
+    type: Literal["AD", "AG"]
+    description: str
+    toe: Literal["closed", "open"]
+    standard: str | None
+    compression_class: str | None
+    class_range_mmHg_at_B: list[float] | None
+    targets_mmHg: dict[str, float] | None
+    fabric: dict | None
+    fabric_text: str
+
+
+class OrderOut(BaseModel):
+    """A made-to-measure stocking order: what a clinic sends and a manufacturer knits from."""
+
+    format: str
+    units: dict[str, str]
+    issued_at: datetime
+    case_ref: str | None
+    record_id: str
+    design_id: str
+    design_created_at: datetime
+    side: Literal["left", "right"] | None
+    side_assumed: bool
+    stocking: OrderStocking
+    measurements: list[OrderMeasurement]
+    sole_height_mm: float | None = Field(description="the floor (sole plane) in the calf frame; null without the foot")
+    leg_outline: list[dict[str, float]] = Field(description="tape girth at heights from B to D: the leg diagram")
+    size_decision: dict
+    verdict: Literal["pass", "review", "fail"]
+    verdict_reasons: list[str]
+    checks: list
+    hot_spots: list
+    knitting_spec: list
+    warnings: list[str] = Field(description="every warning of the record, the design and the order, a sentence each")
 
 
 class GirthDifference(BaseModel):

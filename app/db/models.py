@@ -7,7 +7,7 @@ import uuid
 from datetime import UTC, datetime
 
 from sqlalchemy import JSON, BigInteger, DateTime, Float, ForeignKey, Index, Integer, String, Text, UniqueConstraint
-from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
+from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column, relationship
 from sqlalchemy.types import TypeDecorator
 
 
@@ -161,6 +161,9 @@ class Design(Base):
     result: Mapped[dict] = mapped_column(JSON, nullable=False)
     etag: Mapped[str] = mapped_column(String(64), nullable=False)
     created_at: Mapped[datetime] = mapped_column(UTCDateTime(), default=utcnow, nullable=False)
+    #: the record it was made from (read only: its case reference and side go to the
+    #: design's view and its order; a design never changes its record)
+    record: Mapped[Record] = relationship(viewonly=True)
 
     __table_args__ = (Index("ix_designs_record", "record_id"), Index("ix_designs_tenant", "tenant_id"))
 

@@ -55,6 +55,7 @@ def inputs_from_request(data: dict) -> DesignInputs:
         hot_spot_limit_mmhg=float(data.get("hot_spot_limit_mmHg", defaults.hot_spot_limit_mmhg)),
         step_mm=float(data.get("step_mm", defaults.step_mm)),
         resolution_mm=float(data.get("resolution_mm", defaults.resolution_mm)),
+        toe=str(data.get("toe", defaults.toe)),
     )
 
 
@@ -67,6 +68,7 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
         "hot_spot_limit_mmHg": inputs.hot_spot_limit_mmhg,
         "step_mm": inputs.step_mm,
         "resolution_mm": inputs.resolution_mm,
+        "toe": inputs.toe,
     }
 
 
@@ -180,6 +182,7 @@ def design_view(design: Design) -> dict:
     return {
         "id": design.id,
         "record_id": design.record_id,
+        "case_ref": design.record.case_ref,
         "created_at": design.created_at,
         "inputs": design.inputs,
         **design.result,
@@ -188,6 +191,7 @@ def design_view(design: Design) -> dict:
             "record": f"/api/v1/records/{design.record_id}",
             "knitting_spec": f"{base}/knitting-spec",
             "pressure_map": f"{base}/pressure-map",
+            "order": f"{base}/order",
             **{f"chart_{name}": f"{base}/charts/{name}.png" for name in ("profile", "pressure", "map")},
         },
     }

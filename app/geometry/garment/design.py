@@ -76,6 +76,9 @@ DEFAULT_CLASS = "II"
 DEFAULT_STIFFNESS_N_PER_CM = 10.0
 DEFAULT_STEP_MM = 5.0
 DEFAULT_RESOLUTION_MM = 1.0
+#: the toe when a request names none (the API's default since designs had no toe; the order
+#: prints it, so a clinic that wants an open toe says so)
+DEFAULT_TOE = "closed"
 
 
 @dataclass(frozen=True)
@@ -187,6 +190,7 @@ class DesignInputs:
     hot_spot_limit_mmhg: float = DEFAULT_HOT_SPOT_MMHG
     step_mm: float = DEFAULT_STEP_MM
     resolution_mm: float = DEFAULT_RESOLUTION_MM
+    toe: str = DEFAULT_TOE  # "closed" | "open": the stocking's foot (the order carries it)
     n_around: int = 360
 
 

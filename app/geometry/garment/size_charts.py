@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.garment.measuring_points import chart_of_record
 
 #: the measuring points a chart may name (RAL-GZ 387 letters; c = circumference, l = length
 #: from the floor), in the order of an order form
@@ -184,13 +185,7 @@ def size_decision(chart: SizeChart, measures_mm: dict[str, float]) -> SizeDecisi
 def record_chart_measures(landmarks: dict, sole_mm: float | None) -> dict[str, float]:
     """The chart points a calf record measures (mm): tape girths cB, cB1, cC, cD (the
     convex-hull girth, as a tape and a chart measure), and when the foot's sole is in the
-    scan, the lengths lB, lB1, lC, lD from the floor (height above the sole plane)."""
-    measures = {}
-    for name in ("B", "B1", "C", "D"):
-        entry = landmarks.get(name) or {}
-        girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
-        if girth is not None:
-            measures[f"c{name}"] = float(girth)
-        if sole_mm is not None and entry.get("height_mm") is not None:
-            measures[f"l{name}"] = float(entry["height_mm"]) - float(sole_mm)
-    return measures
+    scan, the lengths lB, lB1, lC, lD from the floor (height above the sole plane); as the
+    order form has them (:func:`app.geometry.garment.measuring_points.chart_of_record`)."""
+    return {m.point.name: m.value_mm for m in chart_of_record(landmarks, sole_mm, "AG")
+            if m.value_mm is not None and m.point.name in CHART_POINTS}

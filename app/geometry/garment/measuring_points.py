@@ -1,0 +1,108 @@
+"""The measuring points of a made-to-measure compression stocking order, as RAL-GZ 387
+(Guetezeichen medizinische Kompressionsstruempfe, measuring instructions) names them and
+the manufacturers' order forms follow it: circumferences c (a tape around the limb,
+perpendicular to its axis) and lengths l from the floor (the sole plane), in mm.
+
+    cA   forefoot, over the metatarsal heads          (AD, AG)
+    cY   heel-instep diagonal, over heel and instep   (AD, AG)
+    cB   ankle, at its narrowest, above the malleoli  (AD, AG)
+    cB1  where the Achilles tendon meets the calf     (AD, AG)
+    cC   calf, at its largest                         (AD, AG)
+    cD   below the knee, under the fibula's head      (AD, AG)
+    cE   middle of the knee                           (AG)
+    cF   middle of the thigh                          (AG)
+    cG   top of the thigh, below the gluteal fold     (AG)
+    lB .. lG  the heights of those points from the floor; foot length heel to longest toe
+
+A record of the paper's calf model (B to D, section 2) measures cB, cB1, cC, cD, and their
+lengths from the floor when the sole is in the scan; :func:`chart_of_record` reports every
+other point as not measured, with the reason, so an order never leaves a blank unexplained.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: stocking types and the leg they cover
+STOCKING_TYPES = {"AD": "knee-high (AD): foot to below the knee", "AG": "thigh-high (AG): foot to the top of the thigh"}
+TOES = ("closed", "open")
+
+
+@dataclass(frozen=True)
+class MeasuringPoint:
+    """One point of the order form: ``name`` (cB, lC, foot_length), ``kind``
+    ("circumference" or "length"), what it is, and the stocking types that need it."""
+
+    name: str
+    kind: str
+    description: str
+    needed_for: tuple[str, ...]
+
+
+MEASURING_POINTS: tuple[MeasuringPoint, ...] = (
+    MeasuringPoint("cA", "circumference", "forefoot over the metatarsal heads", ("AD", "AG")),
+    MeasuringPoint("cY", "circumference", "heel-instep diagonal", ("AD", "AG")),
+    MeasuringPoint("cB", "circumference", "ankle at its narrowest, above the malleoli", ("AD", "AG")),
+    MeasuringPoint("cB1", "circumference", "where the Achilles tendon meets the calf muscle", ("AD", "AG")),
+    MeasuringPoint("cC", "circumference", "calf at its largest", ("AD", "AG")),
+    MeasuringPoint("cD", "circumference", "below the knee, under the head of the fibula", ("AD", "AG")),
+    MeasuringPoint("cE", "circumference", "middle of the knee", ("AG",)),
+    MeasuringPoint("cF", "circumference", "middle of the thigh", ("AG",)),
+    MeasuringPoint("cG", "circumference", "top of the thigh, below the gluteal fold", ("AG",)),
+    MeasuringPoint("foot_length", "length", "heel to the tip of the longest toe", ("AD", "AG")),
+    MeasuringPoint("lB", "length", "floor to B", ("AD", "AG")),
+    MeasuringPoint("lB1", "length", "floor to B1", ("AD", "AG")),
+    MeasuringPoint("lC", "length", "floor to C", ("AD", "AG")),
+    MeasuringPoint("lD", "length", "floor to D", ("AD", "AG")),
+    MeasuringPoint("lE", "length", "floor to E", ("AG",)),
+    MeasuringPoint("lF", "length", "floor to F", ("AG",)),
+    MeasuringPoint("lG", "length", "floor to G", ("AG",)),
+)
+
+#: the calf record's landmarks (paper section 2) and the chart points they give
+CALF_POINTS = ("B", "B1", "C", "D")
+
+
+@dataclass(frozen=True)
+class MeasuredPoint:
+    """A measuring point on a record: ``value_mm`` (None when not measured, with the
+    ``reason``), its height along the limb in the calf frame (mm above the frame's origin,
+    None for a point not on the calf axis) and whether the stocking type needs it."""
+
+    point: MeasuringPoint
+    value_mm: float | None
+    height_mm: float | None
+    needed: bool
+    reason: str | None = None
+
+
+def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str) -> tuple[MeasuredPoint, ...]:
+    """Every measuring point of the order form for a calf record.
+
+    landmarks: name -> {"height_mm", "circumference_mm", "tape_girth_mm"?} for B, B1, C, D
+    (calf frame, mm); sole_mm: the sole plane's height in that frame (None when the foot is
+    not in the scan); stocking_type: "AD" or "AG".  Girths are the tape girths (the convex
+    hull of the section: a tape bridges the concavities, RAL-GZ 387's "Umfang" taken with a
+    tape); lengths are heights above the sole plane."""
+    if stocking_type not in STOCKING_TYPES:
+        raise ValueError(f"stocking type must be one of {', '.join(STOCKING_TYPES)}")
+    measured = []
+    for point in MEASURING_POINTS:
+        needed = stocking_type in point.needed_for
+        letter = point.name[1:]
+        entry = landmarks.get(letter) if letter in CALF_POINTS else None
+        if entry is not None and point.kind == "circumference":
+            girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
+            measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed))
+        elif entry is not None and sole_mm is not None:
+            measured.append(MeasuredPoint(point, float(entry["height_mm"]) - float(sole_mm), float(entry["height_mm"]), needed))
+        elif entry is not None:
+            measured.append(MeasuredPoint(point, None, float(entry["height_mm"]), needed,
+                                          "the sole is not in the scan, so there is no floor to measure from"))
+        elif letter in CALF_POINTS:
+            measured.append(MeasuredPoint(point, None, None, needed, f"the record has no landmark {letter}"))
+        else:
+            measured.append(MeasuredPoint(point, None, None, needed,
+                                          "the calf record models the leg from B to D (paper section 2); "
+                                          "this point is not measured from the scan: take it by tape"))
+    return tuple(measured)

@@ -1,0 +1,111 @@
+"""The order of a design over HTTP: JSON and PDF, what they carry, and their refusals.
+The leg is the BodyParts3D right leg (foot to knee: the floor is in the scan)."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from tests.api.conftest import wait_for_job
+from tests.conftest import REAL
+
+pypdf = pytest.importorskip("pypdf", reason="pypdf (the test extra) reads the order PDF back")
+
+CASE = "CASE-ORDER-7"
+
+
+@pytest.fixture(scope="module")
+def design(client):
+    upload = client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(),
+                         params={"case_ref": CASE, "points": 8}, headers={"Content-Type": "model/stl"})
+    job = wait_for_job(client, upload.headers["location"])
+    assert job["status"] == "succeeded", job
+    made = client.post(f"/api/v1/records/{job['record_id']}/designs",
+                       json={"compression_class": "II", "toe": "open", "fabric": {"stiffness_n_per_cm": 10.0}})
+    assert made.status_code == 201, made.text
+    return made.json()
+
+
+@pytest.fixture(scope="module")
+def order(client, design):
+    response = client.get(f"/api/v1/designs/{design['id']}/order")
+    assert response.status_code == 200 and response.headers["content-type"].startswith("application/json")
+    return response.json()
+
+
+def test_the_order_carries_the_case_the_garment_and_every_point_of_the_form(client, design, order):
+    assert design["case_ref"] == CASE and design["inputs"]["toe"] == "open"
+    assert design["links"]["order"] == f"/api/v1/designs/{design['id']}/order"
+    record = client.get(f"/api/v1/records/{design['record_id']}").json()
+    measured = client.get(f"/api/v1/records/{design['record_id']}/measurements").json()
+    assert (order["case_ref"], order["record_id"], order["design_id"]) == (CASE, record["id"], design["id"])
+    assert order["side"] == record["side"] == "right"
+    stocking = order["stocking"]
+    assert (stocking["type"], stocking["toe"], stocking["standard"], stocking["compression_class"]) == ("AD", "open", "RAL", "II")
+    assert stocking["class_range_mmHg_at_B"] == design["class"]["range_mmHg"]
+    points = {m["point"]: m for m in order["measurements"]}
+    # the form's points in its order, each with a value or the reason it has none
+    assert list(points)[:6] == ["cA", "cY", "cB", "cB1", "cC", "cD"]
+    for name in ("B", "B1", "C", "D"):
+        assert points[f"c{name}"]["value_mm"] == record["landmarks"][name]["tape_girth_mm"]
+        assert points[f"l{name}"]["value_mm"] == pytest.approx(measured["above_floor_mm"][name], abs=1e-9)
+        assert points[f"c{name}"]["height_mm"] == record["landmarks"][name]["height_mm"]
+    assert all((m["value_mm"] is None) == (m["reason"] is not None) for m in points.values())
+    assert [p for p in ("cE", "cF", "cG", "lE", "lF", "lG") if points[p]["needed"]] == []  # a knee-high stocking
+    missing = [m["point"] for m in order["measurements"] if m["needed"] and m["value_mm"] is None]
+    assert missing == ["cA", "cY", "foot_length"]
+    assert any(w.startswith("not measured from the scan: cA, cY, foot_length") for w in order["warnings"])
+    # the decision and the knitting specification are the ones the API gives on their own
+    decision = client.get(f"/api/v1/records/{record['id']}/size-decision", params={"chart": "example-ansur2-ad"}).json()
+    assert order["size_decision"] == decision
+    assert any("EXAMPLE chart" in w for w in order["warnings"])
+    assert order["knitting_spec"] == design["knitting_spec"] and order["verdict"] == design["verdict"]
+    if design["verdict"] != "pass":
+        assert any(w.startswith(f"the design's verdict is {design['verdict']}") for w in order["warnings"])
+    # the leg diagram's outline runs from B to D and agrees with the landmarks' girths at its ends
+    outline = order["leg_outline"]
+    assert outline[0]["height_mm"] == record["landmarks"]["B"]["height_mm"]
+    assert outline[-1]["height_mm"] == pytest.approx(record["landmarks"]["D"]["height_mm"])
+    assert outline[0]["tape_girth_mm"] == pytest.approx(measured["landmarks"]["B"]["tape_circumference_mm"], abs=0.5)
+
+
+def test_the_pdf_prints_what_the_json_says(client, design, order):
+    response = client.get(f"/api/v1/designs/{design['id']}/order", headers={"Accept": "application/pdf"})
+    assert response.status_code == 200 and response.headers["content-type"] == "application/pdf"
+    assert response.content.startswith(b"%PDF-")
+    assert f'filename="order-{design["id"][:12]}.pdf"' in response.headers["content-disposition"]
+    pdf = pypdf.PdfReader(io.BytesIO(response.content))
+    text = "\n".join(page.extract_text() for page in pdf.pages)
+    assert CASE in text and design["id"] in text and design["record_id"] in text
+    assert "knee-high (AD)" in text and "open" in text and "RAL class II" in text
+    for m in order["measurements"]:
+        if m["needed"]:
+            assert m["point"] in text
+            assert (f"{m['value_mm']:.1f} mm" if m["value_mm"] is not None else "not measured") in text
+    for warning in order["warnings"]:
+        assert warning.split(":")[0][:40] in text.replace("\n", " ")
+    # every knitting row is printed: its height and its relaxed circumference
+    for row in order["knitting_spec"]:
+        assert f"{row['relaxed_circumference_mm']:.1f}" in text
+    assert pdf.metadata.title == f"Compression stocking order, case {CASE}"
+    # ?format= overrides Accept, and the JSON stays the default
+    assert client.get(f"/api/v1/designs/{design['id']}/order", params={"format": "pdf"},
+                      headers={"Accept": "application/json"}).headers["content-type"] == "application/pdf"
+
+
+def test_a_registered_chart_decides_and_the_refusals_say_what_is_wrong(client, design):
+    chart = client.post("/api/v1/size-charts", json={"product": "Clinic knee-high", "type": "AD",
+                                                     "sizes": [{"name": "S", "ranges": {"cB": [150, 160], "cC": [250, 270]}}]})
+    assert chart.status_code == 201, chart.text
+    order = client.get(f"/api/v1/designs/{design['id']}/order", params={"chart": chart.json()["id"]}).json()
+    decision = order["size_decision"]
+    assert decision["chart"]["product"] == "Clinic knee-high" and not decision["chart"]["example"]
+    assert decision["decision"] == "made_to_measure" and {o["point"] for o in decision["outside"]} == {"cB", "cC"}
+    assert not any("EXAMPLE chart" in w for w in order["warnings"])
+    missing_chart = client.get(f"/api/v1/designs/{design['id']}/order", params={"chart": "nope"})
+    assert missing_chart.status_code == 404 and missing_chart.json()["code"] == "size_chart_not_found"
+    missing_design = client.get("/api/v1/designs/nope/order")
+    assert missing_design.status_code == 404 and missing_design.json()["code"] == "design_not_found"
+    png = client.get(f"/api/v1/designs/{design['id']}/order", headers={"Accept": "image/png"})
+    assert png.status_code == 406 and "application/pdf" in png.json()["detail"]
