@@ -173,8 +173,10 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     page.get_by_role("link", name="New design").click()
     page.get_by_label("Stiffness K, N/cm per unit strain").fill("10")
     page.get_by_label("Hot spot above, mmHg").fill("30")
+    page.get_by_label("Toe of the stocking").select_option("open")
     page.get_by_role("button", name="Design the stocking").click()
     page.wait_for_url("**/#/designs/*")
+    expect(page.get_by_role("heading", level=1)).to_contain_text("case CASE-WB-1")
     page.locator("#design-verdict").wait_for()
     page.locator("#pressure-viewer canvas").wait_for(timeout=30_000)
     expect(page.locator(".legend #pressure-ramp")).to_have_count(1, timeout=30_000)
@@ -192,6 +194,18 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     spec = Path(info.value.path()).read_text()
     assert spec.startswith("# calf-nurbs knitting specification") and "# record: " in spec and "# side: right" in spec
     assert "height_mm,target_mmHg" in spec and len(spec.splitlines()) > 40
+    # the order: what it still needs in words, and the PDF a clinic sends
+    assert "open toe, knee-high (AD)" in page.locator("#order").inner_text()
+    page.get_by_role("button", name="What the order still needs").click()
+    expect(page.locator("#order-summary")).to_contain_text("Take by tape before sending: cA, cY, foot_length", timeout=30_000)
+    with page.expect_download() as info:
+        page.get_by_role("button", name="Download the order (PDF)").click()
+    assert info.value.suggested_filename.startswith("order-") and info.value.suggested_filename.endswith(".pdf")
+    order_pdf = Path(info.value.path()).read_bytes()
+    assert order_pdf.startswith(b"%PDF-")
+    pypdf = pytest.importorskip("pypdf")
+    text = "\n".join(p.extract_text() for p in pypdf.PdfReader(info.value.path()).pages)
+    assert "CASE-WB-1" in text and "Toe open" in text.replace("\n", " ")
 
     page.get_by_role("link", name="Records").click()
     page.locator("#records-table").wait_for()

@@ -360,10 +360,11 @@ async function designForm(recordId) {
   const stiffness = h('input', { id: 'stiffness', type: 'number', step: '0.1', min: 0.1, value: 10 });
   const table = h('textarea', { id: 'fabric-table', placeholder: 'strain, tension N/cm per line\n0.1, 1.2\n0.3, 4.0\n0.6, 9.5' });
   const limit = h('input', { id: 'hot-limit', type: 'number', step: '1', min: 1, value: 60 });
+  const toe = options('toe', [['closed', 'closed toe'], ['open', 'open toe']]);
   const out = h('div');
   const form = h('form', { class: 'card', onsubmit: async (e) => {
     e.preventDefault();
-    const body = { standard: standard.value, hot_spot_limit_mmHg: Number(limit.value), fabric: {} };
+    const body = { standard: standard.value, hot_spot_limit_mmHg: Number(limit.value), toe: toe.value, fabric: {} };
     if (kind.value === 'class') body.compression_class = cls.value;
     else { body.compression_class = null; body.targets_mmHg = Object.fromEntries(LANDMARKS.map((n) => [n, Number(document.getElementById(`target-${n}`).value)])); }
     if (fabricKind.value === 'linear') body.fabric.stiffness_n_per_cm = Number(stiffness.value);
@@ -379,7 +380,8 @@ async function designForm(recordId) {
     h('fieldset', {}, h('legend', { text: 'Fabric' }), h('label', { for: 'fabric-kind', text: 'Fabric model' }), fabricKind,
       h('label', { for: 'stiffness', text: 'Stiffness K, N/cm per unit strain' }), stiffness,
       h('label', { for: 'fabric-table', text: 'Tension-strain table' }), table,
-      h('label', { for: 'hot-limit', text: 'Hot spot above, mmHg' }), limit)),
+      h('label', { for: 'hot-limit', text: 'Hot spot above, mmHg' }), limit,
+      h('label', { for: 'toe', text: 'Toe of the stocking' }), toe)),
   h('button', { class: 'primary', type: 'submit', text: 'Design the stocking' }), out);
   present(h('h1', { text: 'New stocking design' }), h('p', {}, h('a', { href: `#/records/${recordId}`, text: '← back to the record' })), form);
 }
@@ -413,10 +415,36 @@ function designSummary(design) {
     pressureChart(design));
 }
 
+// the order of a design (GET /designs/{id}/order): its size chart, the PDF and the JSON, and
+// the points of the form the scan does not give (to be taken by tape before it is sent)
+function orderCard(design, charts) {
+  const chartSelect = h('select', { id: 'order-chart' }, charts.map((c) => h('option', { value: c.id, text: c.product })));
+  const out = h('div', { id: 'order-summary', 'aria-live': 'polite' });
+  const path = (format) => `/designs/${design.id}/order?format=${format}&chart=${encodeURIComponent(chartSelect.value)}`;
+  const name = `order-${design.id.slice(0, 8)}`;
+  return h('div', { class: 'card', id: 'order' }, h('h2', { text: 'Order' }),
+    h('p', { class: 'muted', text: `${design.inputs.toe ?? 'closed'} toe, knee-high (AD)` }),
+    h('label', { for: 'order-chart', text: 'Size chart for the ready-to-wear check' }), chartSelect,
+    h('div', { class: 'actions' },
+      h('button', { class: 'primary', type: 'button', id: 'download-order-pdf', text: 'Download the order (PDF)',
+        onclick: () => guarded(() => download(path('pdf'), `${name}.pdf`, 'application/pdf')) }),
+      h('button', { class: 'secondary', type: 'button', id: 'download-order-json', text: 'Order as JSON',
+        onclick: () => guarded(() => download(path('json'), `${name}.json`)) }),
+      h('button', { class: 'secondary', type: 'button', id: 'check-order', text: 'What the order still needs',
+        onclick: () => guarded(async () => {
+          const order = await api(path('json'));
+          const missing = order.measurements.filter((m) => m.needed && m.value_mm == null);
+          out.replaceChildren(h('p', { text: `Size: ${order.size_decision.decision.replaceAll('_', ' ')}${order.size_decision.best ? ` (${order.size_decision.best})` : ''}.` }),
+            missing.length ? h('p', { class: 'warn', text: `Take by tape before sending: ${missing.map((m) => m.point).join(', ')}.` }) : null,
+            h('ul', {}, order.warnings.map((w) => h('li', { text: w }))));
+        }) })),
+    out);
+}
+
 async function designScreen(id) {
   const present = presenter();
   const design = await api(`/designs/${id}`);
-  const record = await api(`/records/${design.record_id}`);
+  const [record, charts] = await Promise.all([api(`/records/${design.record_id}`), api('/size-charts')]);
   const viewerBox = h('div', { class: 'viewer', id: 'pressure-viewer', 'data-label': 'Local skin pressure on the leg' });
   const legend = h('div', { class: 'legend' });
   const hot = design.hot_spots;
@@ -431,8 +459,10 @@ async function designScreen(id) {
       onclick: () => guarded(() => download(`/designs/${id}/knitting-spec`, `knitting-${id.slice(0, 8)}.csv`)) }),
     h('div', { class: 'scroll' }, h('table', { id: 'knitting-spec' }, h('thead', {}, h('tr', {}, columns.map((c) => h('th', { class: 'num', text: c.replaceAll('_', ' ') })))),
       h('tbody', {}, design.knitting_spec.map((row) => h('tr', {}, columns.map((c) => h('td', { class: 'num', text: typeof row[c] === 'number' ? row[c].toFixed(c === 'strain' ? 3 : 1) : row[c] }))))))));
-  if (!present(h('h1', { text: 'Stocking design' }), h('p', {}, h('a', { href: `#/records/${design.record_id}`, text: '← back to the record' })),
-    h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend), hotList), h('div', { class: 'card' }, designSummary(design))), spec)) return;
+  if (!present(h('h1', { text: `Stocking design${design.case_ref ? ` · case ${design.case_ref}` : ''}` }),
+    h('p', {}, h('a', { href: `#/records/${design.record_id}`, text: '← back to the record' })),
+    h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend), hotList),
+      h('div', {}, h('div', { class: 'card' }, designSummary(design)), orderCard(design, charts))), spec)) return;
   // the pressure map: rings x angles grid in the calf frame (CSV), coloured by local pressure
   const csv = await api(`/designs/${id}/pressure-map?format=csv`, { accept: 'text/csv' });
   const rows = csv.trim().split('\n').slice(1).map((line) => line.split(',').map(Number));
