@@ -103,7 +103,7 @@ def get_record(record_id: str, response: Response, session: Session = Depends(ge
                                    "along v, under 20 mm long); surface_too_costly: a patch cost (nu - p)(nv - q)"
                                    "(p + 1)(q + 1) over 50,000, a net over 1,200 mm tall or 300 mm from the axis; "
                                    "invalid_request", s413="payload_too_large: a body over CALF_MAX_JSON_KB")})
-def import_record(response: Response, data: CalfRecordBody = Body(..., description="a calf record (schema_version 1 or 2)"),
+def import_record(response: Response, data: CalfRecordBody = Body(..., description="a calf record (schema_version 1, 2 or 3)"),
                   session: Session = Depends(get_session), principal: Principal = Depends(authorize("upload"))):
     service = RecordService(session, principal.tenant_id)
     record = service.import_record(data.model_dump(exclude_none=True))

@@ -67,11 +67,22 @@ class Surface(BaseModel):
                              "false: a clamped u whose first and last control columns coincide")
 
 
+class ChartPoint(BaseModel):
+    """A point of the order form measured from the scan (mm), or why it is not."""
+
+    model_config = ConfigDict(allow_inf_nan=False)
+    value_mm: float | None = Field(None, gt=0, le=1000, description="tape girth (cA, cY) or foot length; null: see reason")
+    at_mm: list[Annotated[float, Field(ge=-2000, le=2000)]] | None = Field(
+        None, min_length=3, max_length=3, description="where the tape lies, calf frame mm")
+    reason: str | None = Field(None, max_length=500, description="why it is not measured")
+
+
 class CalfRecordBody(BaseModel):
     """A calf record (see app.records.codec for every field)."""
 
     model_config = ConfigDict(extra="allow", allow_inf_nan=False)
-    schema_version: Literal[1, 2] = Field(2, description="1 or 2; version 2 adds tape girths, warnings and side_inference")
+    schema_version: Literal[1, 2, 3] = Field(3, description="1, 2 or 3; version 2 adds tape girths, warnings and "
+                                             "side_inference, version 3 the chart (the foot's points of the order form)")
     units: Literal["mm"] = "mm"
     side: Literal["left", "right"] | None = None
     side_inference: SideInference | None = None
@@ -82,6 +93,8 @@ class CalfRecordBody(BaseModel):
                      Field(min_length=4, max_length=4)] = Field(
         description="4x4: calf-frame mm -> the scan's own coordinates and units")
     landmarks: dict[Literal["B", "B1", "C", "D"], Landmark] = Field(default_factory=dict)
+    chart: dict[Literal["foot_length", "cA", "cY"], ChartPoint] | None = Field(
+        None, description="version 3: the order form's points below B measured from the scan")
     fit: dict = Field(default_factory=dict)
 
 

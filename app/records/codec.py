@@ -1,6 +1,6 @@
 """The calf record: the compact, exact result of a fit, as a frozen dataclass and JSON.
 
-JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")::
+JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")::
 
     schema_version, units, side ("left" | "right" | null)
     side_inference {side, confidence, source ("given" | "body" | "foot" | null)}
@@ -19,6 +19,9 @@ JSON layout (``schema_version`` 2; all lengths in millimetres, ``units`` = "mm")
               (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
               (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
     layers    {heights_mm [7], feature_angles_deg [m]}
+    chart     (version 3) the order form's points below B, measured from the scan
+              (app.geometry.anatomy.foot): {foot_length, cA, cY: {value_mm, at_mm [3]
+              (calf frame, where the tape lies), reason (why not measured, else null)}}
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
                max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
@@ -35,7 +38,8 @@ valid u domain is [knots_u[degree_u], knots_u[nu]]; v runs from B (layer 0) to D
 Error indices are fractions: 0.0037 means 0.37%.
 
 Version 1 records (before tape girths, warnings and side inference) are still read as
-they are: their landmarks simply have no ``tape_girth_mm`` and no warnings.
+they are: their landmarks simply have no ``tape_girth_mm`` and no warnings; version 2
+records have no ``chart`` (their foot points read as not measured).
 """
 
 from __future__ import annotations
@@ -51,8 +55,11 @@ from app.geometry.fit.pipeline import FitResult
 from app.geometry.spline.bounds import check_leg_tube, check_surface_cost
 from app.geometry.spline.nurbs import NurbsSurface, evaluate_grid
 
-SCHEMA_VERSION = 2
-READABLE_VERSIONS = (1, 2)
+SCHEMA_VERSION = 3
+READABLE_VERSIONS = (1, 2, 3)
+#: the chart's points (version 3) and the largest value any of them can have, mm
+CHART_POINTS = ("foot_length", "cA", "cY")
+MAX_CHART_MM = 1000.0
 #: bounds of an importable record: a calf in its own frame (B at the origin, z along
 #: the leg) lies within a few hundred mm of the origin; these leave room for a whole
 #: leg and refuse numbers that would make every export and measurement run away
@@ -76,12 +83,15 @@ class CalfRecord:
     schema_version: int = SCHEMA_VERSION
     warnings: tuple = ()
     side_inference: dict | None = None
+    chart: dict = field(default_factory=dict)  # version 3: foot_length, cA, cY (module docstring)
 
     def to_dict(self) -> dict:
         s = self.surface
-        extra = {}
+        extra: dict = {}
         if self.schema_version >= 2:
             extra = {"warnings": list(self.warnings), "side_inference": self.side_inference}
+        if self.schema_version >= 3:
+            extra["chart"] = self.chart
         return {
             "schema_version": self.schema_version,
             "units": "mm",
@@ -144,6 +154,7 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
     }
     return CalfRecord(
         surface=result.surface,
+        chart=result.foot.as_dict() if result.foot is not None else {},
         frame=result.frame.matrix(),
         landmarks=result.landmarks.as_dict(),
         side=result.side,
@@ -162,6 +173,34 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
             **({"sole_mm": result.sole_mm} if result.sole_mm is not None else {}),
         },
     )
+
+
+def _parse_chart(chart) -> dict:
+    """The version-3 ``chart``: each point {value_mm (0, MAX_CHART_MM] or null, at_mm [3]
+    or null, reason or null}; a point with no value needs its reason."""
+    if chart is None:
+        return {}
+    if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS):
+        raise _invalid(f"chart must be an object of {', '.join(CHART_POINTS)}")
+    clean = {}
+    for name, entry in chart.items():
+        if not isinstance(entry, dict):
+            raise _invalid(f"chart.{name} must be an object")
+        value, at, reason = entry.get("value_mm"), entry.get("at_mm"), entry.get("reason")
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
+                                  or not 0 < value <= MAX_CHART_MM):
+            raise _invalid(f"chart.{name}.value_mm must be a length in (0, {MAX_CHART_MM:g}] mm or null")
+        if at is not None:
+            at = _finite_array(at, f"chart.{name}.at_mm", 1)
+            if at.shape != (3,) or np.abs(at).max() > MAX_CONTROL_MM:
+                raise _invalid(f"chart.{name}.at_mm must be 3 coordinates within {MAX_CONTROL_MM:g} mm")
+            at = at.tolist()
+        if reason is not None and (not isinstance(reason, str) or len(reason) > 500):
+            raise _invalid(f"chart.{name}.reason must be a sentence (at most 500 characters)")
+        if value is None and reason is None:
+            raise _invalid(f"chart.{name} has no value: it needs its reason")
+        clean[name] = {"value_mm": None if value is None else float(value), "at_mm": at, "reason": reason}
+    return clean
 
 
 def _invalid(detail: str) -> FitFailure:
@@ -311,6 +350,7 @@ def parse_record(data: dict) -> CalfRecord:
     if side_inference is not None and not isinstance(side_inference, dict):
         raise _invalid("side_inference must be an object or null")
     return CalfRecord(
+        chart=_parse_chart(data.get("chart")) if version >= 3 else {},
         schema_version=int(version),
         warnings=tuple(warnings),
         side_inference=side_inference,

@@ -71,7 +71,7 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
     result, inputs = design.result, design.inputs
     sole = (record.scan or {}).get("sole_mm")
     sole = float(sole) if isinstance(sole, (int, float)) and np.isfinite(sole) else None
-    measured = chart_of_record(record.landmarks, sole, DESIGNED_TYPE)
+    measured = chart_of_record(record.landmarks, sole, DESIGNED_TYPE, record.chart if record.schema_version >= 3 else None)
     klass = result.get("class")
     return {
         "format": ORDER_FORMAT,

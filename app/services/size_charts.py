@@ -68,7 +68,7 @@ class SizeChartService:
         chart, example = self.get(chart_id)
         record = self.records.get(record_id)
         body = record.body
-        measures = record_chart_measures(body.get("landmarks", {}), (body.get("scan") or {}).get("sole_mm"))
+        measures = record_chart_measures(body.get("landmarks", {}), (body.get("scan") or {}).get("sole_mm"), body.get("chart"))
         decision = size_decision(chart, measures)
         return {
             "record_id": record.id,

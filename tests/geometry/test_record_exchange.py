@@ -22,7 +22,7 @@ def record_dict():
 
 
 def test_record_has_the_documented_fields(record_dict):
-    assert record_dict["schema_version"] == 2 and record_dict["units"] == "mm"
+    assert record_dict["schema_version"] == 3 and record_dict["units"] == "mm"
     surface = record_dict["surface"]
     nu, nv = len(surface["control_points"]), len(surface["control_points"][0])
     assert (nu, nv) == (15 + 3, 7)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
+from app.geometry.anatomy.foot import FootMeasures, foot_measures
 from app.geometry.anatomy.landmarks import (
     LANDMARK_NAMES,
     Landmark,
@@ -129,6 +130,7 @@ class FitResult:
     sole_mm: float | None = None  # calf-frame z of the sole (the leg's lowest point) when the foot is in the scan
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
+    foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
 
     @property
     def warnings(self) -> list[str]:
@@ -212,6 +214,10 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
         heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]
         if heel.size:
             result = dataclasses.replace(result, sole_mm=float(heel.min()))
+    # the order form's points below B (foot length, cA, cY), or why the scan has none
+    measuring = time.perf_counter()
+    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm))
+    result.timings["foot"] = time.perf_counter() - measuring
     return result
 
 

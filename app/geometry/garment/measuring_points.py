@@ -15,8 +15,10 @@ perpendicular to its axis) and lengths l from the floor (the sole plane), in mm.
     lB .. lG  the heights of those points from the floor; foot length heel to longest toe
 
 A record of the paper's calf model (B to D, section 2) measures cB, cB1, cC, cD, and their
-lengths from the floor when the sole is in the scan; :func:`chart_of_record` reports every
-other point as not measured, with the reason, so an order never leaves a blank unexplained.
+lengths from the floor when the sole is in the scan; a version-3 record also the foot
+length, cA and cY (app.geometry.anatomy.foot) when the foot is in the scan;
+:func:`chart_of_record` reports every other point as not measured, with the reason, so an
+order never leaves a blank unexplained.
 """
 
 from __future__ import annotations
@@ -76,14 +78,20 @@ class MeasuredPoint:
     reason: str | None = None
 
 
-def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str) -> tuple[MeasuredPoint, ...]:
+#: the record's foot points (its ``chart``, version 3)
+FOOT_POINTS = ("foot_length", "cA", "cY")
+
+
+def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
+                    foot: dict | None = None) -> tuple[MeasuredPoint, ...]:
     """Every measuring point of the order form for a calf record.
 
     landmarks: name -> {"height_mm", "circumference_mm", "tape_girth_mm"?} for B, B1, C, D
     (calf frame, mm); sole_mm: the sole plane's height in that frame (None when the foot is
     not in the scan); stocking_type: "AD" or "AG".  Girths are the tape girths (the convex
     hull of the section: a tape bridges the concavities, RAL-GZ 387's "Umfang" taken with a
-    tape); lengths are heights above the sole plane."""
+    tape); lengths are heights above the sole plane.  ``foot``: the record's chart
+    {foot_length, cA, cY: {value_mm, at_mm, reason}} (None: a record before version 3)."""
     if stocking_type not in STOCKING_TYPES:
         raise ValueError(f"stocking type must be one of {', '.join(STOCKING_TYPES)}")
     measured = []
@@ -91,7 +99,16 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str) 
         needed = stocking_type in point.needed_for
         letter = point.name[1:]
         entry = landmarks.get(letter) if letter in CALF_POINTS else None
-        if entry is not None and point.kind == "circumference":
+        if point.name in FOOT_POINTS:
+            measured_foot = (foot or {}).get(point.name)
+            if measured_foot is None:
+                measured.append(MeasuredPoint(point, None, None, needed, "the record was made before the foot was "
+                                              "measured (schema version 3): fit the scan again, or take it by tape"))
+            else:
+                at = measured_foot.get("at_mm")
+                measured.append(MeasuredPoint(point, measured_foot.get("value_mm"), None if at is None else float(at[2]),
+                                              needed, measured_foot.get("reason")))
+        elif entry is not None and point.kind == "circumference":
             girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
             measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed))
         elif entry is not None and sole_mm is not None:

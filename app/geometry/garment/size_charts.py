@@ -182,10 +182,11 @@ def size_decision(chart: SizeChart, measures_mm: dict[str, float]) -> SizeDecisi
     return SizeDecision("made_to_measure", (), None, nearest, outside, (), checks)
 
 
-def record_chart_measures(landmarks: dict, sole_mm: float | None) -> dict[str, float]:
+def record_chart_measures(landmarks: dict, sole_mm: float | None, foot: dict | None = None) -> dict[str, float]:
     """The chart points a calf record measures (mm): tape girths cB, cB1, cC, cD (the
     convex-hull girth, as a tape and a chart measure), and when the foot's sole is in the
-    scan, the lengths lB, lB1, lC, lD from the floor (height above the sole plane); as the
-    order form has them (:func:`app.geometry.garment.measuring_points.chart_of_record`)."""
-    return {m.point.name: m.value_mm for m in chart_of_record(landmarks, sole_mm, "AG")
+    scan, the lengths lB, lB1, lC, lD from the floor (height above the sole plane) and the
+    record's cA, cY from ``foot`` (its version-3 chart); as the order form has them
+    (:func:`app.geometry.garment.measuring_points.chart_of_record`)."""
+    return {m.point.name: m.value_mm for m in chart_of_record(landmarks, sole_mm, "AG", foot)
             if m.value_mm is not None and m.point.name in CHART_POINTS}
