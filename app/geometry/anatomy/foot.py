@@ -17,12 +17,13 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   girth is where the forefoot is largest over them: the largest tape girth (convex hull
   of the section, :func:`app.geometry.sections.tape_girths`) in vertical planes
   perpendicular to the foot axis from 0.62 to 0.78 of the foot length, every 2 mm.
-- **cY, the heel-instep diagonal.**  The tape passes under the back of the heel and over
-  the instep (the front of the ankle fold).  Its planes contain the foot's transverse
-  axis and pass through the heel's posterior-inferior point (the foot point furthest
-  back-and-down, at 45 degrees in the sagittal plane); tilted 30-65 degrees from the floor,
-  the loop is the smallest of them (the tape tightens to the shortest loop), as the
-  shoemakers' long heel girth is taken.
+- **cY, the heel-instep diagonal.**  The tape passes round the back of the heel and over
+  the front of the ankle (ANSUR II's heel-ankle circumference; RAL-GZ 387's "Fersen-Rist-
+  Umfang").  Its plane contains the foot's transverse axis and passes through the heel's
+  posterior-inferior point (the foot point furthest back-and-down, at 45 degrees in the
+  sagittal plane) and the front of the ankle: on the anterior profile of the foot's
+  mid-plane, the deepest point of the concave corner where the dorsum meets the shank
+  (the profile point furthest behind the chord from the toe tip to the shank at B).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -33,8 +34,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from app.geometry.sections import tape_girths
+from app.geometry.sections import mesh_section_segments, tape_girths
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -43,9 +45,12 @@ MIN_FOOT_MM = 150.0
 #: the ball girth's window, as fractions of the foot length from the heel (module docstring)
 BALL_WINDOW = (0.62, 0.78)
 BALL_STEP_MM = 2.0
-#: the heel-instep planes' tilt from the floor, degrees, and their step
-INSTEP_TILT_DEG = (30.0, 65.0)
-INSTEP_STEP_DEG = 2.5
+#: the foot's mid-plane, where the anterior profile is read: this close to it, mm
+SAGITTAL_HALF_WIDTH_MM = 8.0
+#: a mesh's mid-plane outline is subdivided to this spacing, mm
+OUTLINE_STEP_MM = 1.0
+#: where the front of the ankle is searched, fractions of the foot length from the heel
+INSTEP_WINDOW = (0.15, 0.55)
 #: an end whose section 6 mm inside is above this share of the ball girth was cut, not tapered
 END_TAPER_SHARE = 0.7
 END_INSET_MM = 6.0
@@ -109,7 +114,9 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     """The foot length, cA and cY of the module docstring (mm), or why not."""
     if sole_mm is None:
         return _not_measured("the foot is not in the scan")
-    below_b, below_faces = _below(points, faces, 0.5 * sole_mm)  # the foot: below halfway from the sole to B
+    # the foot: below halfway from the sole to B (the forefoot is 40-55 mm high, B 100-150
+    # mm above the sole; the shank's back above the heel would cut the heel's end planes)
+    below_b, below_faces = _below(points, faces, 0.5 * sole_mm)
     footprint = below_b[below_b[:, 2] < sole_mm + FOOTPRINT_MM]
     if len(footprint) < 50:
         return _not_measured("the scan has too few points near the sole to find the foot")
@@ -148,23 +155,81 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
     instep, instep_faces = _below(points, faces, INSTEP_TOP_MM)
-    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across))
+    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, centre_x, heel_t, length))
 
 
-def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray) -> FootPoint:
-    """cY: the smallest loop through the heel's posterior-inferior point over the instep,
-    planes tilted INSTEP_TILT_DEG from the floor about the transverse axis."""
+def _sagittal_outline(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
+                      centre_x: float) -> np.ndarray:
+    """The outline of the foot's mid-plane (x = centre_x across the foot) as (n, 2) points
+    (along the foot axis, height) mm, at most OUTLINE_STEP_MM apart: a mesh's exact plane
+    section (:func:`app.geometry.sections.mesh_section_segments`, each segment subdivided),
+    a cloud's points within SAGITTAL_HALF_WIDTH_MM of the plane."""
+    up = np.array([0.0, 0.0, 1.0])
+    if faces is None or not len(faces):
+        # a sparse cloud needs a thicker slab to hold the outline: twice its point spacing
+        spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
+        near = points[np.abs(points @ across - centre_x) < max(SAGITTAL_HALF_WIDTH_MM, 2.0 * spacing)]
+        return np.column_stack([near @ axis, near[:, 2]])
+    local = points @ np.array([axis, up, across]).T
+    _, segments = mesh_section_segments(local, faces, np.array([centre_x]))
+    if not len(segments):
+        return np.empty((0, 2))
+    pieces = max(1, int(np.ceil(np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1).max() / OUTLINE_STEP_MM)))
+    f = np.linspace(0.0, 1.0, pieces + 1)[None, :, None]
+    return (segments[:, :1] * (1 - f) + segments[:, 1:] * f).reshape(-1, 2)
+
+
+def _instep_point(outline: np.ndarray, heel_t: float, length: float) -> np.ndarray | None:
+    """The front of the ankle, where the dorsum of the foot meets the shank, as (along the
+    foot axis, height) mm, or None: on the anterior profile of the mid-plane outline (the
+    front-most point of each 2 mm of height, from the toe tip up to B) the deepest point of
+    the concave corner, the profile point furthest behind the chord from the toe tip to the
+    shank's front at B.  Only front points count (ahead of the heel by INSTEP_WINDOW[0] of
+    the foot length: a sparse scan's bin may hold only the back of the leg), and the corner
+    is searched within INSTEP_WINDOW of the foot length from the heel (the talus neck, at
+    the front of the ankle, lies 0.3-0.45 of it forward; the dorsum of the toes, further
+    on, can dip too)."""
+    outline = outline[(outline[:, 1] <= 0.0) & (outline[:, 0] > heel_t + INSTEP_WINDOW[0] * length)]
+    if len(outline) < 20:
+        return None
+    t, z = outline[:, 0], outline[:, 1]
+    edges = np.arange(z.min(), 1e-9, 2.0)
+    if len(edges) < 8:
+        return None
+    bin_of = np.clip(np.digitize(z, edges) - 1, 0, len(edges) - 1)
+    order = np.lexsort((t, bin_of))  # by bin, then forward: each bin's last is its front-most
+    last = np.r_[bin_of[order][1:] != bin_of[order][:-1], True]
+    profile = outline[order[last]]
+    pt, pz = profile[:, 0], profile[:, 1]
+    tip = int(np.argmax(pt))  # the toe tip
+    top = len(profile) - 1  # the shank's front just below B
+    if top - tip < 4:
+        return None
+    chord = np.array([pt[top] - pt[tip], pz[top] - pz[tip]])
+    chord /= np.linalg.norm(chord)
+    rel = profile[tip:top + 1] - profile[tip]
+    behind = rel[:, 1] * chord[0] - rel[:, 0] * chord[1]  # > 0: behind the chord (towards the heel)
+    behind[profile[tip:top + 1, 0] > heel_t + INSTEP_WINDOW[1] * length] = -np.inf
+    deepest = int(np.argmax(behind))
+    return profile[tip + deepest] if behind[deepest] > 0 else None
+
+
+def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
+                 centre_x: float, heel_t: float, length: float) -> FootPoint:
+    """cY: the loop in the plane through the heel's posterior-inferior point and the front
+    of the ankle (:func:`_instep_point`) that contains the foot's transverse axis."""
     up = np.array([0.0, 0.0, 1.0])
     back_down = -(axis + up) / np.sqrt(2.0)
     heel = points[int(np.argmax(points @ back_down))]
-    tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
-    girths = np.full(len(tilts), np.nan)
-    for i, tilt in enumerate(tilts):  # one plane per tilt: a handful of planes, each vectorised
-        in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
-        normal = np.cross(across, in_plane)
-        girths[i] = _plane_girths(points, faces, heel, np.array([across, in_plane, normal]), np.array([0.0]))[0]
-    if not np.isfinite(girths).any():
+    front = _instep_point(_sagittal_outline(points, faces, axis, across, centre_x), heel_t, length)
+    if front is None:
+        return FootPoint("cY", None, reason="the front of the ankle (the fold over the instep) is not in the scan")
+    instep = front[0] * axis + front[1] * up + centre_x * across
+    rise = instep - heel
+    rise -= (rise @ across) * across
+    in_plane = rise / np.linalg.norm(rise)
+    normal = np.cross(across, in_plane)
+    girth = _plane_girths(points, faces, heel, np.array([across, in_plane, normal]), np.array([0.0]))[0]
+    if not np.isfinite(girth):
         return FootPoint("cY", None, reason="no closed loop around the heel and the instep (a hole or a crop)")
-    best = int(np.nanargmin(girths))
-    in_plane = np.cos(tilts[best]) * axis + np.sin(tilts[best]) * up
-    return FootPoint("cY", float(girths[best]), _xyz(heel + 60.0 * in_plane))
+    return FootPoint("cY", float(girth), _xyz((heel + instep) / 2))

@@ -33,7 +33,7 @@ def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarra
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
         ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
-        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6)
+        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
     else:
         sections = slice_points_polar(points, heights, 360)
     return sections.tape_perimeters()

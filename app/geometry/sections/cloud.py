@@ -180,6 +180,7 @@ def slice_points_polar(
     n_angles: int = 72,
     half_thickness: float | None = None,
     harmonics: int = HARMONICS,
+    widen: bool = True,
 ) -> PolarSections:
     """Polar-resampled sections of a point cloud (see the module docstring).
 
@@ -193,7 +194,8 @@ def slice_points_polar(
     that are tilted to the slicing planes, so a slab as thin as the mean density allows
     catches arcs of a ring, not the ring.  Only the slabs that need it grow: the ankle's
     girth, which a thick slab overstates, stays measured on the thinnest slab that sees
-    its whole ring.
+    its whole ring.  ``widen=False`` keeps the given thickness (points that lie in their
+    planes, a mesh's section ends, gain nothing from a thicker slab).
     """
     heights = np.asarray(heights, dtype=np.float64)
     if half_thickness is None:
@@ -202,7 +204,7 @@ def slice_points_polar(
     ordered = (order, points[order, 2])
     sections = _slice_slabs(points, ordered, heights, n_angles, half_thickness, harmonics)
     half = half_thickness
-    while half < MAX_HALF_MM:
+    while widen and half < MAX_HALF_MM:
         thin = np.flatnonzero(sections.coverage < WIDEN_BELOW_COVERAGE)
         if not thin.size:
             break

@@ -1,0 +1,104 @@
+"""The foot's points of the order form (app.geometry.anatomy.foot): on an ellipsoid foot
+whose sections are known, on a cut foot, and on a real scan read as a mesh and as its
+vertices."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+from scipy.spatial import ConvexHull
+
+from app.geometry.anatomy.foot import BALL_WINDOW, foot_measures
+from app.geometry.placement.place import place_leg
+from tests.conftest import fitted
+
+SOLE = -130.0
+#: the phantom's foot: an ellipsoid 250 mm long (y), 90 wide (x), 50 high, its heel at y = -65
+HALF_LENGTH, HALF_WIDTH, HALF_HEIGHT, CENTRE_Y = 125.0, 45.0, 25.0, 60.0
+
+
+def _ellipse_perimeter(a: float, b: float) -> float:
+    """Ramanujan's second approximation (error ~1e-5 relative for these shapes)."""
+    h = ((a - b) / (a + b)) ** 2
+    return np.pi * (a + b) * (1 + 3 * h / (10 + np.sqrt(4 - 3 * h)))
+
+
+SHANK_RADIUS = 40.0
+
+
+def _phantom_meshes() -> tuple[trimesh.Trimesh, trimesh.Trimesh]:
+    """The ellipsoid foot on the sole and a 40 mm shank rising from its middle to 105 mm
+    above B (calf-frame mm)."""
+    foot = trimesh.creation.icosphere(subdivisions=5)
+    foot.apply_scale([HALF_WIDTH, HALF_LENGTH, HALF_HEIGHT])
+    foot.apply_translation([0.0, CENTRE_Y, SOLE + HALF_HEIGHT])
+    shank = trimesh.creation.cylinder(radius=SHANK_RADIUS, height=260.0, sections=256)
+    shank.apply_translation([0.0, 0.0, SOLE + HALF_HEIGHT + 130.0])
+    return foot, shank
+
+
+def _phantom(toe_cut_y: float | None = None) -> np.ndarray:
+    """A cloud (n, 3) calf-frame mm: the phantom's skin sampled densely, 0.1 mm noise."""
+    rng = np.random.default_rng(3)
+    foot, shank = _phantom_meshes()
+    foot_points, shank_points = foot.sample(120_000, seed=1), shank.sample(60_000, seed=2)
+    # the skin of the union: neither body's surface inside the other
+    in_foot = (((shank_points[:, 0] / HALF_WIDTH) ** 2 + ((shank_points[:, 1] - CENTRE_Y) / HALF_LENGTH) ** 2
+                + ((shank_points[:, 2] - SOLE - HALF_HEIGHT) / HALF_HEIGHT) ** 2) < 1.0)
+    in_shank = (np.hypot(foot_points[:, 0], foot_points[:, 1]) < SHANK_RADIUS) & (foot_points[:, 2] > SOLE + HALF_HEIGHT)
+    points = np.vstack([foot_points[~in_shank], shank_points[~in_foot]])
+    if toe_cut_y is not None:
+        points = points[points[:, 1] < toe_cut_y]
+    return points + rng.normal(0.0, 0.1, points.shape)
+
+
+def test_an_ellipsoid_foot_gives_its_length_and_its_ball_girth():
+    measures = foot_measures(_phantom(), None, SOLE)
+    assert measures.foot_length.value_mm == pytest.approx(2 * HALF_LENGTH, abs=1.5)
+    # the ball window's section nearest the ellipsoid's middle is the largest
+    t = min(abs(f * 2 * HALF_LENGTH - HALF_LENGTH) for f in BALL_WINDOW) if not (
+        BALL_WINDOW[0] * 2 * HALF_LENGTH <= HALF_LENGTH <= BALL_WINDOW[1] * 2 * HALF_LENGTH) else 0.0
+    scale = np.sqrt(1 - (t / HALF_LENGTH) ** 2)
+    assert measures.ball_girth.value_mm == pytest.approx(_ellipse_perimeter(HALF_WIDTH * scale, HALF_HEIGHT * scale), abs=2.0)
+    ball_y = measures.ball_girth.at_mm[1]
+    assert -65.0 + BALL_WINDOW[0] * 250 - 1 <= ball_y <= -65.0 + BALL_WINDOW[1] * 250 + 1
+    # the heel-instep loop: through the ellipsoid's posterior-inferior point (its normal at
+    # 45 degrees back and down) and the corner where the foot's top meets the shank's front
+    root = np.hypot(HALF_LENGTH, HALF_HEIGHT)
+    heel = np.array([0.0, CENTRE_Y - HALF_LENGTH**2 / root, SOLE + HALF_HEIGHT - HALF_HEIGHT**2 / root])
+    corner_y = SHANK_RADIUS
+    corner = np.array([0.0, corner_y, SOLE + HALF_HEIGHT * (1 + np.sqrt(1 - ((corner_y - CENTRE_Y) / HALF_LENGTH) ** 2))])
+    rise = (corner - heel) / np.linalg.norm(corner - heel)
+    normal = np.cross([1.0, 0.0, 0.0], rise)
+    # the loop a tape makes there: the convex hull of the two bodies' exact plane sections
+    ends = np.vstack([trimesh.intersections.mesh_plane(m, normal, heel).reshape(-1, 3) for m in _phantom_meshes()])
+    in_plane = np.column_stack([ends[:, 0], (ends - heel) @ rise])
+    expected = ConvexHull(in_plane).area  # a 2-D hull's "area" is its perimeter
+    found = measures.heel_instep_girth
+    assert found.value_mm == pytest.approx(expected, abs=3.0)
+    assert np.linalg.norm(np.array(found.at_mm) - (heel + corner) / 2) < 5.0
+
+
+def test_a_cut_foot_and_a_scan_without_its_foot_say_why():
+    cut = foot_measures(_phantom(toe_cut_y=150.0), None, SOLE)  # the toes cut 35 mm short
+    assert cut.foot_length.value_mm is None and "cut" in cut.foot_length.reason
+    assert cut.ball_girth.value_mm is None and cut.heel_instep_girth.reason == cut.foot_length.reason
+    none = foot_measures(_phantom(), None, None)
+    assert none.ball_girth.value_mm is None and none.ball_girth.reason == "the foot is not in the scan"
+
+
+def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
+    """The Visible Human female's right foot (a mesh): within ANSUR II's adult range, and
+    its vertices alone (a cloud) give the same points within 1.5 mm."""
+    scan, result = fitted("vh_female_skin.glb", "right")
+    leg = place_leg(scan, "right")
+    local = leg.placement.frame.to_calf(leg.points)
+    mesh = foot_measures(local, leg.faces, result.sole_mm)
+    cloud = foot_measures(local, None, result.sole_mm)
+    assert 200 < mesh.foot_length.value_mm < 300 and 190 < mesh.ball_girth.value_mm < 300
+    assert 260 < mesh.heel_instep_girth.value_mm < 400
+    for a, b in ((mesh.foot_length, cloud.foot_length), (mesh.ball_girth, cloud.ball_girth),
+                 (mesh.heel_instep_girth, cloud.heel_instep_girth)):
+        assert a.value_mm == pytest.approx(b.value_mm, abs=1.5)
+    assert result.foot is not None and result.foot.ball_girth.value_mm == pytest.approx(mesh.ball_girth.value_mm)
