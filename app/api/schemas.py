@@ -164,6 +164,20 @@ class LandmarkGirth(GirthOut):
     confidence: str | None = Field(None, description="high | medium | low (see the record's landmarks)")
 
 
+class OrderMeasurement(BaseModel):
+    """A measuring point of the order form (RAL-GZ 387) on a record, mm."""
+
+    point: str = Field(description="RAL-GZ 387 letter: cA, cY, cB ... cG (circumferences), lB ... lG (from the floor), foot_length")
+    kind: Literal["circumference", "length"]
+    description: str
+    needed_for: list[Literal["AD", "AG"]] = Field(description="the stocking types whose order form asks for it")
+    needed: bool = Field(description="the stocking type in question asks for it (AG for a record's chart)")
+    value_mm: float | None = Field(description="tape girth or length from the floor; null when not measured (see reason)")
+    height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
+    at_mm: list[float] | None = Field(None, description="where the tape lies (the foot's points), calf frame mm")
+    reason: str | None = Field(description="why there is no value")
+
+
 class MeasurementsOut(BaseModel):
     record_id: str
     units: str
@@ -173,6 +187,8 @@ class MeasurementsOut(BaseModel):
     lengths_mm: dict[str, float] = Field(description="height differences along the calf axis between landmarks")
     above_floor_mm: dict[str, float] | None = Field(
         None, description="landmark heights above the sole (the floor of a standing person), when the foot is in the scan")
+    chart: list[OrderMeasurement] = Field(default_factory=list, description="the order form's measuring points (RAL-GZ "
+                                          "387), each with its value or the reason it has none")
     warnings: list[str] = Field(default_factory=list, description="the record's warnings about its scan")
 
 
@@ -252,16 +268,6 @@ class DesignOut(BaseModel):
     hot_spots: list
     knitting_spec: list
     links: dict[str, str]
-
-
-class OrderMeasurement(BaseModel):
-    point: str = Field(description="RAL-GZ 387 letter: cA, cY, cB ... cG (circumferences), lB ... lG (from the floor), foot_length")
-    kind: Literal["circumference", "length"]
-    description: str
-    needed: bool = Field(description="the stocking type's order form asks for it")
-    value_mm: float | None = Field(description="tape girth or length from the floor; null when not measured (see reason)")
-    height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
-    reason: str | None = Field(description="why there is no value")
 
 
 class OrderStocking(BaseModel):

@@ -17,10 +17,11 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from app.db.models import Design, Record, utcnow
-from app.geometry.garment.measuring_points import STOCKING_TYPES, chart_of_record
+from app.geometry.garment.measuring_points import STOCKING_TYPES
 from app.geometry.measures.surface_girths import girths
 from app.records.codec import CalfRecord
 from app.services.designs import DesignService
+from app.services.records import record_chart
 from app.services.size_charts import EXAMPLE_CHART_ID, SizeChartService
 
 ORDER_FORMAT = "calf-nurbs order 1"
@@ -42,7 +43,7 @@ def _warnings(record: CalfRecord, result: dict, inputs: dict, measured, decision
     warnings = list(record.warnings)
     if result.get("side_assumed") or not result.get("side"):
         warnings.append("the side of the leg was not inferred from the scan: confirm left or right before knitting")
-    missing = [m.point.name for m in measured if m.needed and m.value_mm is None]
+    missing = [m["point"] for m in measured if m["needed"] and m["value_mm"] is None]
     if missing:
         warnings.append(f"not measured from the scan: {', '.join(missing)}; take them by tape (RAL-GZ 387) before ordering")
     verdict = result.get("verdict") or ("pass" if result.get("passed") else "fail")
@@ -71,7 +72,7 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
     result, inputs = design.result, design.inputs
     sole = (record.scan or {}).get("sole_mm")
     sole = float(sole) if isinstance(sole, (int, float)) and np.isfinite(sole) else None
-    measured = chart_of_record(record.landmarks, sole, DESIGNED_TYPE, record.chart if record.schema_version >= 3 else None)
+    measured = record_chart(record, DESIGNED_TYPE)
     klass = result.get("class")
     return {
         "format": ORDER_FORMAT,
@@ -94,11 +95,7 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
             "fabric": result.get("fabric"),
             "fabric_text": _fabric_text(result.get("fabric") or {}),
         },
-        "measurements": [
-            {"point": m.point.name, "kind": m.point.kind, "description": m.point.description, "needed": m.needed,
-             "value_mm": m.value_mm, "height_mm": m.height_mm, "reason": m.reason}
-            for m in measured
-        ],
+        "measurements": measured,
         "sole_height_mm": sole,
         "leg_outline": leg_outline(record),
         "size_decision": decision,

@@ -16,6 +16,7 @@ from app.db.repositories import RecordRepository
 from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
+from app.geometry.garment.measuring_points import chart_of_record
 from app.geometry.measures.surface_girths import girths, surface_height_range
 from app.records.codec import CalfRecord, parse_importable
 from app.records.meshes import export_mesh, surface_mesh
@@ -145,8 +146,23 @@ class RecordService:
                 for g in measured[len(names):]
             ],
             "lengths_mm": lengths,
+            "chart": record_chart(parsed),
             "warnings": list(parsed.warnings),
         }
+
+
+def record_chart(parsed: CalfRecord, stocking_type: str = "AG") -> list[dict]:
+    """The order form's measuring points of a record (mm), in the form's order: each with
+    its value or the reason it has none, where it is (height in the calf frame; the foot's
+    points also at_mm), the stocking types that ask for it and whether ``stocking_type``
+    does (app.geometry.garment.measuring_points)."""
+    sole = (parsed.scan or {}).get("sole_mm")
+    sole = float(sole) if isinstance(sole, (int, float)) and np.isfinite(sole) else None
+    foot = parsed.chart if parsed.schema_version >= 3 else None
+    return [{"point": m.point.name, "kind": m.point.kind, "description": m.point.description,
+             "needed_for": list(m.point.needed_for), "needed": m.needed, "value_mm": m.value_mm,
+             "height_mm": m.height_mm, "at_mm": None if m.at_mm is None else list(m.at_mm), "reason": m.reason}
+            for m in chart_of_record(parsed.landmarks, sole, stocking_type, foot)]
 
 
 def surface_etag(record_etag_value: str, file_format: str, around: int, along: int) -> str:

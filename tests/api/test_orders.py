@@ -58,6 +58,11 @@ def test_the_order_carries_the_case_the_garment_and_every_point_of_the_form(clie
     for name in ("cA", "cY", "foot_length"):
         assert points[name]["value_mm"] == record["chart"][name]["value_mm"] is not None
     assert [m["point"] for m in order["measurements"] if m["needed"] and m["value_mm"] is None] == []
+    # the record's measurement chart (every type's points) agrees with the order's (AD's)
+    chart = {m["point"]: m for m in measured["chart"]}
+    assert [m["value_mm"] for m in order["measurements"]] == [chart[m["point"]]["value_mm"] for m in order["measurements"]]
+    assert chart["cG"]["needed_for"] == ["AG"] and chart["cG"]["value_mm"] is None and chart["cG"]["reason"]
+    assert chart["cA"]["at_mm"][2] < record["landmarks"]["B"]["height_mm"]  # on the foot, below B
     assert not any(w.startswith("not measured from the scan") for w in order["warnings"])
     # the decision and the knitting specification are the ones the API gives on their own
     decision = client.get(f"/api/v1/records/{record['id']}/size-decision", params={"chart": "example-ansur2-ad"}).json()

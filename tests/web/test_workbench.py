@@ -142,7 +142,14 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     page.get_by_role("button", name="Check the sizes").click()
     expect(page.locator("#size-decision")).to_contain_text(re.compile("ready to wear|made to measure"), timeout=30_000)
     page.locator("#record-viewer canvas").wait_for()
-    expect(page.locator("#record-viewer .tag")).to_have_count(4, timeout=30_000)
+    expect(page.locator("#record-viewer .tag.ring")).to_have_count(4, timeout=30_000)
+    # the foot's order-form points on the 3D leg, and the form's chart beside it
+    expect(page.locator("#record-viewer .tag.point")).to_have_count(3, timeout=30_000)
+    assert {t.split()[0] for t in page.locator("#record-viewer .tag.point").all_inner_texts()} == {"cA", "cY", "foot_length"}
+    for point in ("cA", "cY", "cB", "cC", "cD", "foot_length", "lB", "lD"):
+        assert page.locator(f"#order-points tr[data-point={point}]").get_attribute("data-measured") == "yes"
+    assert page.locator("#order-points tr[data-point=cG]").get_attribute("data-measured") == "no"
+    assert "not in the scan" in page.locator("#order-points tr[data-point=cG]").inner_text()
     page.get_by_label("Error colours (distance to the scan)").check()
     page.wait_for_timeout(500)
     assert canvas_has_a_picture(page, "#record-viewer")

@@ -76,6 +76,7 @@ class MeasuredPoint:
     height_mm: float | None
     needed: bool
     reason: str | None = None
+    at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's points), calf frame
 
 
 #: the record's foot points (its ``chart``, version 3)
@@ -106,8 +107,9 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
                                               "measured (schema version 3): fit the scan again, or take it by tape"))
             else:
                 at = measured_foot.get("at_mm")
+                where = None if at is None else (float(at[0]), float(at[1]), float(at[2]))
                 measured.append(MeasuredPoint(point, measured_foot.get("value_mm"), None if at is None else float(at[2]),
-                                              needed, measured_foot.get("reason")))
+                                              needed, measured_foot.get("reason"), where))
         elif entry is not None and point.kind == "circumference":
             girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
             measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed))

@@ -253,8 +253,8 @@ async function recordScreen(id) {
   if (!present(h('h1', { text: `Record ${record.side ? `— ${record.side} leg` : ''}${record.case_ref ? ` · case ${record.case_ref}` : ''}` }),
     record.warnings?.length ? h('div', { class: 'card warn' }, h('ul', {}, record.warnings.map((w) => h('li', { text: w })))) : null,
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, toggles, legend), profileBox),
-      h('div', {}, sheet, downloads, sizeCard(id, charts), designList, compareCard)))) return;
-  await Promise.all([draw3d(record, viewerBox, toggles, legend), drawProfile(record, profileBox)]);
+      h('div', {}, sheet, orderPoints(measure.chart || []), downloads, sizeCard(id, charts), designList, compareCard)))) return;
+  await Promise.all([draw3d(record, viewerBox, toggles, legend, measure.chart), drawProfile(record, profileBox)]);
 }
 
 function measurementSheet(record, measure) {
@@ -286,13 +286,26 @@ function measurementSheet(record, measure) {
     ask);
 }
 
-async function draw3d(record, box, toggles, legend) {
+// the order form's measuring points (RAL-GZ 387) of a record: value, or why the scan has none
+function orderPoints(chart) {
+  return h('div', { class: 'card' }, h('h2', { text: 'Order form points' }),
+    h('div', { class: 'scroll' }, h('table', { id: 'order-points' },
+      h('thead', {}, h('tr', {}, ['point', 'what', 'for', 'value'].map((t) => h('th', { text: t })))),
+      h('tbody', {}, chart.map((p) => h('tr', { 'data-point': p.point, 'data-measured': p.value_mm != null ? 'yes' : 'no' },
+        h('th', { text: p.point }), h('td', { text: p.description }), h('td', { text: p.needed_for.join(', ') }),
+        h('td', { class: p.value_mm != null ? 'num' : 'muted', text: p.value_mm != null ? `${mm(p.value_mm)} mm` : `not in the scan: ${p.reason}` })))))));
+}
+
+async function draw3d(record, box, toggles, legend, chart) {
   const S = makeSurface(record);
   const [nU, nV] = [240, 210];  // 100k triangles
   const viewer = await createViewer(box);
   const positions = grid(S, nU, nV);
   viewer.surface('surface', positions, gridIndex(nU, nV));
   LANDMARKS.forEach((name) => { const m = record.landmarks[name]; if (m) viewer.ring(`ring-${name}`, ring(S, m.height_mm), name); });
+  // the order form's points the scan gave off the calf (the foot's cA, cY, foot length)
+  (chart || []).filter((p) => p.at_mm && p.value_mm != null)
+    .forEach((p) => viewer.marker(`point-${p.point}`, p.at_mm, 0xb45309, 4, `${p.point} ${p.value_mm.toFixed(0)}`));
   viewer.frameAll();
   const toggle = (id, label, on, change) => {
     const input = h('input', { id, type: 'checkbox', checked: on, onchange: () => change(input.checked) });

@@ -109,16 +109,23 @@ export async function createViewer(container) {
       const geometry = new THREE.BufferGeometry().setFromPoints(points.map((p) => new THREE.Vector3(...p)));
       const line = put(name, new THREE.LineLoop(geometry, new THREE.LineBasicMaterial({ color })));
       const el = document.createElement('span');
-      el.className = 'tag';
+      el.className = 'tag ring';
       el.textContent = label;
       container.append(el);
       const far = points.reduce((best, p) => (p[0] > best[0] ? p : best), points[0]);
       tags.push({ el, anchor: new THREE.Vector3(...far) });
       return line;
     },
-    marker(name, position, color = 0xd00000, radius = 4) {
+    marker(name, position, color = 0xd00000, radius = 4, label = null) {
       const mesh = new THREE.Mesh(new THREE.SphereGeometry(radius, 16, 12), new THREE.MeshBasicMaterial({ color }));
       mesh.position.set(...position);
+      if (label) {
+        const el = document.createElement('span');
+        el.className = 'tag point';
+        el.textContent = label;
+        container.append(el);
+        tags.push({ el, anchor: new THREE.Vector3(...position) });
+      }
       return put(name, mesh);
     },
     visible(name, on) { const o = objects.get(name); if (o) { o.visible = on; render(); } },
