@@ -71,7 +71,7 @@ def fit_summary(record_dict: dict) -> dict:
         "points_per_layer": fit["points_per_layer"],
         "mode": fit.get("mode", "paper"),
         **({"grid": fit["grid"]} if "grid" in fit else {}),
-        # the foot's points of the order form (cB-cD are the landmarks' tape girths)
+        # the order form's points off the calf (cB-cD are the landmarks' tape girths)
         "chart": {name: point["value_mm"] if point.get("value_mm") is not None else f"not measured: {point.get('reason')}"
                   for name, point in (record_dict.get("chart") or {}).items()},
         "seconds": fit["seconds"],

@@ -9,8 +9,8 @@ on the clean mesh) and again with each degradation of :data:`RESCAN_KINDS`, each
 own pose, units and file format.  Every scan is checked and fitted as an upload is; the
 order form's points are read from the record as the order reads them
 (app.geometry.garment.measuring_points.chart_of_record): the circumferences cA, cY (the
-foot, app.geometry.anatomy.foot), cB, cB1, cC, cD and the lengths (foot length, lB, lB1,
-lC, lD from the floor).  Reported, per point: |re-scan - clean| p50 / p95 / max over all
+foot, app.geometry.anatomy.foot), cB, cB1, cC, cD, cE, cF, cG (the thigh,
+app.geometry.anatomy.thigh) and the lengths (foot length, lB ... lG from the floor).  Reported, per point: |re-scan - clean| p50 / p95 / max over all
 re-scans, and the range over one leg's scans (clean included) p95.  Targets: girths
 within 3 mm p95, lengths within 5 mm p95, re-scans of one leg within 2 mm p95 (the
 girths).
@@ -42,8 +42,8 @@ ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
 RESCAN_KINDS = ("noise", "holes", "cloud", "cloud_noise", "cloud_holes", "cloud_uneven", "vertex_cloud", "floor",
                 "floor_cloud", "two_legs", "knee_high")
-GIRTHS = ("cA", "cY", "cB", "cB1", "cC", "cD")
-LENGTHS = ("foot_length", "lB", "lB1", "lC", "lD")
+GIRTHS = ("cA", "cY", "cB", "cB1", "cC", "cD", "cE", "cF", "cG")
+LENGTHS = ("foot_length", "lB", "lB1", "lC", "lD", "lE", "lF", "lG")
 REAL = (("bodyparts3d_right_leg.stl", None), ("vh_female_skin.glb", "right"), ("vh_male_skin.glb", "right"))
 
 
@@ -56,7 +56,7 @@ def chart_points(scan, side: str | None) -> dict:
         return {"outcome": failure.reason.value}
     record = record_from_fit(fit, scan.source_format, scan.units)
     sole = record.scan.get("sole_mm")
-    measured = chart_of_record(record.landmarks, sole, "AD", record.chart)
+    measured = chart_of_record(record.landmarks, sole, "AG", record.chart)
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS}}
 

@@ -28,7 +28,7 @@ def test_fit_then_export(tmp_path, capsys):
     assert len(record["surface"]["control_points"]) == 8 + 3
     # the foot is in this scan: its order-form points, as the record holds them
     assert summary["chart"] == {name: p["value_mm"] for name, p in record["chart"].items()}
-    assert set(summary["chart"]) == {"foot_length", "cA", "cY"} and 200 < summary["chart"]["foot_length"] < 300
+    assert set(summary["chart"]) == {"foot_length", "cA", "cY", "cE", "cF", "cG"} and 200 < summary["chart"]["foot_length"] < 300
     for fmt in ("stl", "glb"):
         out = tmp_path / f"leg.{fmt}"
         assert main(["export", str(record_path), "--format", fmt, "-o", str(out)]) == 0

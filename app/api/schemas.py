@@ -73,7 +73,8 @@ class ChartPoint(BaseModel):
     model_config = ConfigDict(allow_inf_nan=False)
     value_mm: float | None = Field(None, gt=0, le=1000, description="tape girth (cA, cY) or foot length; null: see reason")
     at_mm: list[Annotated[float, Field(ge=-2000, le=2000)]] | None = Field(
-        None, min_length=3, max_length=3, description="where the tape lies, calf frame mm")
+        None, min_length=3, max_length=3, description="where the tape lies (the foot's points), calf frame mm")
+    height_mm: float | None = Field(None, ge=-2000, le=2000, description="its height (the thigh's points), calf frame mm")
     reason: str | None = Field(None, max_length=500, description="why it is not measured")
 
 
@@ -93,8 +94,8 @@ class CalfRecordBody(BaseModel):
                      Field(min_length=4, max_length=4)] = Field(
         description="4x4: calf-frame mm -> the scan's own coordinates and units")
     landmarks: dict[Literal["B", "B1", "C", "D"], Landmark] = Field(default_factory=dict)
-    chart: dict[Literal["foot_length", "cA", "cY"], ChartPoint] | None = Field(
-        None, description="version 3: the order form's points below B measured from the scan")
+    chart: dict[Literal["foot_length", "cA", "cY", "cE", "cF", "cG"], ChartPoint] | None = Field(
+        None, description="version 3: the order form's points off the calf (foot, knee, thigh) measured from the scan")
     fit: dict = Field(default_factory=dict)
 
 

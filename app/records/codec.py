@@ -19,9 +19,11 @@ JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")
               (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
               (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
     layers    {heights_mm [7], feature_angles_deg [m]}
-    chart     (version 3) the order form's points below B, measured from the scan
-              (app.geometry.anatomy.foot): {foot_length, cA, cY: {value_mm, at_mm [3]
-              (calf frame, where the tape lies), reason (why not measured, else null)}}
+    chart     (version 3) the order form's points off the calf, measured from the scan:
+              the foot's (app.geometry.anatomy.foot) {foot_length, cA, cY: {value_mm,
+              at_mm [3] (calf frame, where the tape lies), reason (why not measured, else
+              null)}} and the thigh's (app.geometry.anatomy.thigh) {cE, cF, cG: {value_mm,
+              height_mm (calf frame z), reason}}
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
                max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
@@ -58,7 +60,7 @@ from app.geometry.spline.nurbs import NurbsSurface, evaluate_grid
 SCHEMA_VERSION = 3
 READABLE_VERSIONS = (1, 2, 3)
 #: the chart's points (version 3) and the largest value any of them can have, mm
-CHART_POINTS = ("foot_length", "cA", "cY")
+CHART_POINTS = ("foot_length", "cA", "cY", "cE", "cF", "cG")
 MAX_CHART_MM = 1000.0
 #: bounds of an importable record: a calf in its own frame (B at the origin, z along
 #: the leg) lies within a few hundred mm of the origin; these leave room for a whole
@@ -154,7 +156,8 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
     }
     return CalfRecord(
         surface=result.surface,
-        chart=result.foot.as_dict() if result.foot is not None else {},
+        chart={**(result.foot.as_dict() if result.foot is not None else {}),
+               **(result.thigh.as_dict() if result.thigh is not None else {})},
         frame=result.frame.matrix(),
         landmarks=result.landmarks.as_dict(),
         side=result.side,
@@ -177,7 +180,7 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
 
 def _parse_chart(chart) -> dict:
     """The version-3 ``chart``: each point {value_mm (0, MAX_CHART_MM] or null, at_mm [3]
-    or null, reason or null}; a point with no value needs its reason."""
+    or null, height_mm or null, reason or null}; a point with no value needs its reason."""
     if chart is None:
         return {}
     if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS):
@@ -186,7 +189,10 @@ def _parse_chart(chart) -> dict:
     for name, entry in chart.items():
         if not isinstance(entry, dict):
             raise _invalid(f"chart.{name} must be an object")
-        value, at, reason = entry.get("value_mm"), entry.get("at_mm"), entry.get("reason")
+        value, at, reason, height = entry.get("value_mm"), entry.get("at_mm"), entry.get("reason"), entry.get("height_mm")
+        if height is not None and (isinstance(height, bool) or not isinstance(height, (int, float))
+                                   or not math.isfinite(height) or abs(height) > MAX_CONTROL_MM):
+            raise _invalid(f"chart.{name}.height_mm must be a height within {MAX_CONTROL_MM:g} mm or null")
         if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
                                   or not 0 < value <= MAX_CHART_MM):
             raise _invalid(f"chart.{name}.value_mm must be a length in (0, {MAX_CHART_MM:g}] mm or null")
@@ -199,7 +205,9 @@ def _parse_chart(chart) -> dict:
             raise _invalid(f"chart.{name}.reason must be a sentence (at most 500 characters)")
         if value is None and reason is None:
             raise _invalid(f"chart.{name} has no value: it needs its reason")
-        clean[name] = {"value_mm": None if value is None else float(value), "at_mm": at, "reason": reason}
+        clean[name] = {"value_mm": None if value is None else float(value), "reason": reason,
+                       **({"at_mm": at} if "at_mm" in entry else {}),
+                       **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {})}
     return clean
 
 

@@ -67,7 +67,7 @@ def leg_diagram(order: dict) -> Drawing:
         drawing.add(Line(4, y(floor), DIAGRAM_W - 4, y(floor), strokeColor=INK, strokeWidth=1))
         drawing.add(String(4, y(floor) + 2, "floor", fontSize=6, fillColor=INK))
     for m in order["measurements"]:
-        if m["kind"] != "circumference" or m["value_mm"] is None or m["height_mm"] is None:
+        if not m["needed"] or m["kind"] != "circumference" or m["value_mm"] is None or m["height_mm"] is None:
             continue
         r = m["value_mm"] / (2 * 3.141592653589793)
         at = y(m["height_mm"])

@@ -61,7 +61,9 @@ def test_the_order_carries_the_case_the_garment_and_every_point_of_the_form(clie
     # the record's measurement chart (every type's points) agrees with the order's (AD's)
     chart = {m["point"]: m for m in measured["chart"]}
     assert [m["value_mm"] for m in order["measurements"]] == [chart[m["point"]]["value_mm"] for m in order["measurements"]]
-    assert chart["cG"]["needed_for"] == ["AG"] and chart["cG"]["value_mm"] is None and chart["cG"]["reason"]
+    # this leg reaches the hip: the thigh-high points are measured too (an AD order lists, not asks, them)
+    assert chart["cG"]["needed_for"] == ["AG"] and chart["cG"]["value_mm"] > chart["cE"]["value_mm"] > 0
+    assert chart["lG"]["value_mm"] > chart["lF"]["value_mm"] > chart["lE"]["value_mm"] > chart["lD"]["value_mm"]
     assert chart["cA"]["at_mm"][2] < record["landmarks"]["B"]["height_mm"]  # on the foot, below B
     assert not any(w.startswith("not measured from the scan") for w in order["warnings"])
     # the decision and the knitting specification are the ones the API gives on their own

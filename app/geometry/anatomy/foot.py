@@ -15,15 +15,16 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   head) is 0.740 +- 0.014 of the foot length (6,068 subjects, tests/data/ansur2), and the
   fifth metatarsal head lies about 0.1 of the foot length behind the first; the ball
   girth is where the forefoot is largest over them: the largest tape girth (convex hull
-  of the section, :func:`app.geometry.sections.tape_girths`) in vertical planes
+  of the section, :func:`_plane_girths`) in vertical planes
   perpendicular to the foot axis from 0.62 to 0.78 of the foot length, every 2 mm.
 - **cY, the heel-instep diagonal.**  The tape passes round the back of the heel and over
   the front of the ankle (ANSUR II's heel-ankle circumference; RAL-GZ 387's "Fersen-Rist-
-  Umfang").  Its plane contains the foot's transverse axis and passes through the heel's
-  posterior-inferior point (the foot point furthest back-and-down, at 45 degrees in the
-  sagittal plane) and the front of the ankle: on the anterior profile of the foot's
-  mid-plane, the deepest point of the concave corner where the dorsum meets the shank
-  (the profile point furthest behind the chord from the toe tip to the shank at B).
+  Umfang") and is pulled to the shortest such loop.  Its planes contain the foot's
+  transverse axis and pass through the heel's posterior-inferior point (the foot point
+  furthest back-and-down, at 45 degrees in the sagittal plane); among those tilted 20-75
+  degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
+  the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
+  exact value matters to second order only (re-scans move a corner point, not a minimum).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -34,9 +35,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, cKDTree
+from scipy.stats import binned_statistic
 
-from app.geometry.sections import mesh_section_segments, tape_girths
+from app.geometry.sections import mesh_section_segments
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -45,11 +47,11 @@ MIN_FOOT_MM = 150.0
 #: the ball girth's window, as fractions of the foot length from the heel (module docstring)
 BALL_WINDOW = (0.62, 0.78)
 BALL_STEP_MM = 2.0
-#: the foot's mid-plane, where the anterior profile is read: this close to it, mm
-SAGITTAL_HALF_WIDTH_MM = 8.0
-#: a mesh's mid-plane outline is subdivided to this spacing, mm
-OUTLINE_STEP_MM = 1.0
-#: where the front of the ankle is searched, fractions of the foot length from the heel
+#: the heel-instep planes' tilt from the floor and its step, degrees; where their loop's
+#: far end must lie (over the front of the ankle: the talus neck is 0.3-0.45 of the foot
+#: length forward of the heel), fractions of the foot length from the heel
+INSTEP_TILT_DEG = (20.0, 75.0)
+INSTEP_STEP_DEG = 2.5
 INSTEP_WINDOW = (0.15, 0.55)
 #: an end whose section 6 mm inside is above this share of the ball girth was cut, not tapered
 END_TAPER_SHARE = 0.7
@@ -57,6 +59,10 @@ END_INSET_MM = 6.0
 #: the heel-instep loop rises to the front of the ankle, above B on most legs: its planes
 #: see the scan below this height (mm above B; the loop tops out 20-50 mm above B)
 INSTEP_TOP_MM = 80.0
+INSTEP_TOP_MARGIN_MM = 10.0
+#: a cloud's loop: the slab's half thickness, mm, and the share of empty degrees allowed
+LOOP_SLAB_MM = 2.0
+LOOP_MAX_EMPTY = 0.3
 
 
 @dataclass(frozen=True)
@@ -106,8 +112,43 @@ def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float) -> tuple[
 def _plane_girths(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
                   offsets: np.ndarray) -> np.ndarray:
     """Tape girths in the planes {p : (p - origin) . basis[2] = offset}, basis (3, 3)
-    orthonormal rows (the third the planes' normal); (k,) mm, NaN where no section."""
-    return tape_girths((points - origin) @ basis.T, faces, offsets)
+    orthonormal rows (the third the planes' normal); (k,) mm, NaN where no closed section.
+
+    The tape is the convex hull of the section.  A mesh: the hull of its exact plane
+    section's segment ends (:func:`app.geometry.sections.mesh_section_segments`).  A cloud:
+    the points within LOOP_SLAB_MM (or the cloud's median point spacing, if larger) of
+    the plane, read as their median radius in each
+    of up to 360 bins of angle (about 3 points a bin) around the slab's centroid (a scanner's noise would otherwise widen the hull of
+    the raw points by its outermost excursions), then the hull of that polygon; more than
+    LOOP_MAX_EMPTY of the bins empty is no closed section.  (The calf's polar fit,
+    :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
+    harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
+    q = (points - origin) @ basis.T
+    girths = np.full(len(offsets), np.nan)
+    if faces is not None and len(faces):
+        plane, segments = mesh_section_segments(q, faces, offsets)
+        for k in np.unique(plane):  # one hull per plane: a handful of planes
+            ends = segments[plane == k].reshape(-1, 2)
+            if len(ends) >= 6:
+                girths[k] = ConvexHull(ends).area  # a 2-D hull's "area" is its perimeter
+        return girths
+    # a sparse cloud's slab must be as thick as its point spacing to hold a whole ring
+    half = max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
+    for k, offset in enumerate(offsets):
+        slab = q[np.abs(q[:, 2] - offset) < half, :2]
+        if len(slab) < 30:
+            continue
+        rel = slab - slab.mean(axis=0)
+        angle, radius = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
+        bins = int(np.clip(len(slab) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
+        median, _, _ = binned_statistic(angle, radius, "median", bins=bins, range=(-np.pi, np.pi))
+        filled = np.isfinite(median)
+        if filled.mean() < 1 - LOOP_MAX_EMPTY:
+            continue
+        centres = np.linspace(-np.pi, np.pi, bins + 1)[:-1] + np.pi / bins
+        radii = np.interp(centres, centres[filled], median[filled], period=2 * np.pi)
+        girths[k] = ConvexHull(np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])).area
+    return girths
 
 
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None) -> FootMeasures:
@@ -155,81 +196,53 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
     instep, instep_faces = _below(points, faces, INSTEP_TOP_MM)
-    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, centre_x, heel_t, length))
+    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length))
 
 
-def _sagittal_outline(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                      centre_x: float) -> np.ndarray:
-    """The outline of the foot's mid-plane (x = centre_x across the foot) as (n, 2) points
-    (along the foot axis, height) mm, at most OUTLINE_STEP_MM apart: a mesh's exact plane
-    section (:func:`app.geometry.sections.mesh_section_segments`, each segment subdivided),
-    a cloud's points within SAGITTAL_HALF_WIDTH_MM of the plane."""
-    up = np.array([0.0, 0.0, 1.0])
-    if faces is None or not len(faces):
-        # a sparse cloud needs a thicker slab to hold the outline: twice its point spacing
-        spacing = float(np.median(cKDTree(points).query(points, k=2)[0][:, 1]))
-        near = points[np.abs(points @ across - centre_x) < max(SAGITTAL_HALF_WIDTH_MM, 2.0 * spacing)]
-        return np.column_stack([near @ axis, near[:, 2]])
-    local = points @ np.array([axis, up, across]).T
-    _, segments = mesh_section_segments(local, faces, np.array([centre_x]))
-    if not len(segments):
-        return np.empty((0, 2))
-    pieces = max(1, int(np.ceil(np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1).max() / OUTLINE_STEP_MM)))
-    f = np.linspace(0.0, 1.0, pieces + 1)[None, :, None]
-    return (segments[:, :1] * (1 - f) + segments[:, 1:] * f).reshape(-1, 2)
-
-
-def _instep_point(outline: np.ndarray, heel_t: float, length: float) -> np.ndarray | None:
-    """The front of the ankle, where the dorsum of the foot meets the shank, as (along the
-    foot axis, height) mm, or None: on the anterior profile of the mid-plane outline (the
-    front-most point of each 2 mm of height, from the toe tip up to B) the deepest point of
-    the concave corner, the profile point furthest behind the chord from the toe tip to the
-    shank's front at B.  Only front points count (ahead of the heel by INSTEP_WINDOW[0] of
-    the foot length: a sparse scan's bin may hold only the back of the leg), and the corner
-    is searched within INSTEP_WINDOW of the foot length from the heel (the talus neck, at
-    the front of the ankle, lies 0.3-0.45 of it forward; the dorsum of the toes, further
-    on, can dip too)."""
-    outline = outline[(outline[:, 1] <= 0.0) & (outline[:, 0] > heel_t + INSTEP_WINDOW[0] * length)]
-    if len(outline) < 20:
+def _front_of_loop(points: np.ndarray, faces: np.ndarray | None, heel: np.ndarray, basis: np.ndarray) -> np.ndarray | None:
+    """The loop's far end in the plane through ``heel`` with rows ``basis`` (across, rising
+    in-plane direction, normal): its section point furthest along basis[1] (calf frame mm,
+    (3,)), or None without a section.  A mesh's exact section ends; a cloud's points
+    within its slab (twice the point spacing)."""
+    q = (points - heel) @ basis.T
+    if faces is not None and len(faces):
+        _, segments = mesh_section_segments(q, faces, np.array([0.0]))
+        if not len(segments):
+            return None
+        ends = segments.reshape(-1, 2)
+        far = ends[int(np.argmax(ends[:, 1]))]
+        return heel + far[0] * basis[0] + far[1] * basis[1]
+    near = np.flatnonzero(np.abs(q[:, 2]) < 2.0)
+    if not len(near):
         return None
-    t, z = outline[:, 0], outline[:, 1]
-    edges = np.arange(z.min(), 1e-9, 2.0)
-    if len(edges) < 8:
-        return None
-    bin_of = np.clip(np.digitize(z, edges) - 1, 0, len(edges) - 1)
-    order = np.lexsort((t, bin_of))  # by bin, then forward: each bin's last is its front-most
-    last = np.r_[bin_of[order][1:] != bin_of[order][:-1], True]
-    profile = outline[order[last]]
-    pt, pz = profile[:, 0], profile[:, 1]
-    tip = int(np.argmax(pt))  # the toe tip
-    top = len(profile) - 1  # the shank's front just below B
-    if top - tip < 4:
-        return None
-    chord = np.array([pt[top] - pt[tip], pz[top] - pz[tip]])
-    chord /= np.linalg.norm(chord)
-    rel = profile[tip:top + 1] - profile[tip]
-    behind = rel[:, 1] * chord[0] - rel[:, 0] * chord[1]  # > 0: behind the chord (towards the heel)
-    behind[profile[tip:top + 1, 0] > heel_t + INSTEP_WINDOW[1] * length] = -np.inf
-    deepest = int(np.argmax(behind))
-    return profile[tip + deepest] if behind[deepest] > 0 else None
+    return points[near[int(np.argmax(q[near, 1]))]]
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                 centre_x: float, heel_t: float, length: float) -> FootPoint:
-    """cY: the loop in the plane through the heel's posterior-inferior point and the front
-    of the ankle (:func:`_instep_point`) that contains the foot's transverse axis."""
+                 heel_t: float, length: float) -> FootPoint:
+    """cY: the shortest loop round the heel's posterior-inferior point and over the front
+    of the ankle, among the planes through that point containing the foot's transverse
+    axis tilted INSTEP_TILT_DEG from the floor whose loop's far end lies over the ankle
+    (INSTEP_WINDOW of the foot length from the heel: a flatter plane leaves over the
+    dorsum of the forefoot and is no heel-instep loop) and below INSTEP_TOP_MM (a steeper
+    one runs up the shank, out of the part of the scan it is measured on)."""
     up = np.array([0.0, 0.0, 1.0])
     back_down = -(axis + up) / np.sqrt(2.0)
     heel = points[int(np.argmax(points @ back_down))]
-    front = _instep_point(_sagittal_outline(points, faces, axis, across, centre_x), heel_t, length)
-    if front is None:
-        return FootPoint("cY", None, reason="the front of the ankle (the fold over the instep) is not in the scan")
-    instep = front[0] * axis + front[1] * up + centre_x * across
-    rise = instep - heel
-    rise -= (rise @ across) * across
-    in_plane = rise / np.linalg.norm(rise)
-    normal = np.cross(across, in_plane)
-    girth = _plane_girths(points, faces, heel, np.array([across, in_plane, normal]), np.array([0.0]))[0]
-    if not np.isfinite(girth):
-        return FootPoint("cY", None, reason="no closed loop around the heel and the instep (a hole or a crop)")
-    return FootPoint("cY", float(girth), _xyz((heel + instep) / 2))
+    tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
+    best: tuple[float, np.ndarray] | None = None
+    for tilt in tilts:  # ~20 planes, each vectorised over the points
+        in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
+        basis = np.array([across, in_plane, np.cross(across, in_plane)])
+        far = _front_of_loop(points, faces, heel, basis)
+        if far is None or not heel_t + INSTEP_WINDOW[0] * length <= far @ axis <= heel_t + INSTEP_WINDOW[1] * length:
+            continue
+        if far[2] > INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:  # the loop reaches the part's cut: not closed
+            continue
+        girth = float(_plane_girths(points, faces, heel, basis, np.array([0.0]))[0])
+        if np.isfinite(girth) and (best is None or girth < best[0]):
+            best = (girth, (heel + far) / 2)
+    if best is None:
+        return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "
+                                            "(a hole or a crop)")
+    return FootPoint("cY", best[0], _xyz(best[1]))

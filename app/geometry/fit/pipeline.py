@@ -28,6 +28,7 @@ from app.geometry.anatomy.landmarks import (
     height_tolerances,
     layer_heights,
 )
+from app.geometry.anatomy.thigh import ThighMeasures, thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
@@ -131,6 +132,7 @@ class FitResult:
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
     foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
+    thigh: ThighMeasures | None = None  # cE, cF, cG (app.geometry.anatomy.thigh) when measured
 
     @property
     def warnings(self) -> list[str]:
@@ -214,10 +216,11 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
         heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]
         if heel.size:
             result = dataclasses.replace(result, sole_mm=float(heel.min()))
-    # the order form's points below B (foot length, cA, cY), or why the scan has none
+    # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()
-    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm))
-    result.timings["foot"] = time.perf_counter() - measuring
+    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm),
+                                 thigh=thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces)))
+    result.timings["chart_points"] = time.perf_counter() - measuring
     return result
 
 

@@ -16,7 +16,8 @@ perpendicular to its axis) and lengths l from the floor (the sole plane), in mm.
 
 A record of the paper's calf model (B to D, section 2) measures cB, cB1, cC, cD, and their
 lengths from the floor when the sole is in the scan; a version-3 record also the foot
-length, cA and cY (app.geometry.anatomy.foot) when the foot is in the scan;
+length, cA and cY (app.geometry.anatomy.foot) when the foot is in the scan, and cE, cF,
+cG with their lengths (app.geometry.anatomy.thigh) when the thigh is;
 :func:`chart_of_record` reports every other point as not measured, with the reason, so an
 order never leaves a blank unexplained.
 """
@@ -79,8 +80,9 @@ class MeasuredPoint:
     at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's points), calf frame
 
 
-#: the record's foot points (its ``chart``, version 3)
+#: the record's points off the calf (its ``chart``, version 3): the foot's and the thigh's
 FOOT_POINTS = ("foot_length", "cA", "cY")
+THIGH_POINTS = ("cE", "cF", "cG")
 
 
 def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
@@ -92,7 +94,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
     not in the scan); stocking_type: "AD" or "AG".  Girths are the tape girths (the convex
     hull of the section: a tape bridges the concavities, RAL-GZ 387's "Umfang" taken with a
     tape); lengths are heights above the sole plane.  ``foot``: the record's chart
-    {foot_length, cA, cY: {value_mm, at_mm, reason}} (None: a record before version 3)."""
+    {foot_length, cA, cY: {value_mm, at_mm, reason}, cE, cF, cG: {value_mm, height_mm,
+    reason}} (None: a record before version 3)."""
     if stocking_type not in STOCKING_TYPES:
         raise ValueError(f"stocking type must be one of {', '.join(STOCKING_TYPES)}")
     measured = []
@@ -100,7 +103,23 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
         needed = stocking_type in point.needed_for
         letter = point.name[1:]
         entry = landmarks.get(letter) if letter in CALF_POINTS else None
-        if point.name in FOOT_POINTS:
+        if letter in ("E", "F", "G"):
+            level = (foot or {}).get(f"c{letter}")
+            if level is None:
+                measured.append(MeasuredPoint(point, None, None, needed, "the record was made before the thigh was "
+                                              "measured (schema version 3): fit the scan again, or take it by tape"))
+                continue
+            height = level.get("height_mm")
+            if point.kind == "circumference":
+                measured.append(MeasuredPoint(point, level.get("value_mm"), height, needed, level.get("reason")))
+            elif height is None:
+                measured.append(MeasuredPoint(point, None, None, needed, level.get("reason")))
+            elif sole_mm is None:
+                measured.append(MeasuredPoint(point, None, height, needed,
+                                              "the sole is not in the scan, so there is no floor to measure from"))
+            else:
+                measured.append(MeasuredPoint(point, float(height) - float(sole_mm), height, needed))
+        elif point.name in FOOT_POINTS:
             measured_foot = (foot or {}).get(point.name)
             if measured_foot is None:
                 measured.append(MeasuredPoint(point, None, None, needed, "the record was made before the foot was "

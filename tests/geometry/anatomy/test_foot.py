@@ -63,21 +63,25 @@ def test_an_ellipsoid_foot_gives_its_length_and_its_ball_girth():
     assert measures.ball_girth.value_mm == pytest.approx(_ellipse_perimeter(HALF_WIDTH * scale, HALF_HEIGHT * scale), abs=2.0)
     ball_y = measures.ball_girth.at_mm[1]
     assert -65.0 + BALL_WINDOW[0] * 250 - 1 <= ball_y <= -65.0 + BALL_WINDOW[1] * 250 + 1
-    # the heel-instep loop: through the ellipsoid's posterior-inferior point (its normal at
-    # 45 degrees back and down) and the corner where the foot's top meets the shank's front
+    # the heel-instep loop: the shortest round the ellipsoid's posterior-inferior point (its
+    # normal 45 degrees back and down) over the front of the ankle (the loop's far end 0.15
+    # to 0.55 of the foot length from the heel), from exact plane sections of the two
+    # bodies and their convex hull, every half degree
     root = np.hypot(HALF_LENGTH, HALF_HEIGHT)
     heel = np.array([0.0, CENTRE_Y - HALF_LENGTH**2 / root, SOLE + HALF_HEIGHT - HALF_HEIGHT**2 / root])
-    corner_y = SHANK_RADIUS
-    corner = np.array([0.0, corner_y, SOLE + HALF_HEIGHT * (1 + np.sqrt(1 - ((corner_y - CENTRE_Y) / HALF_LENGTH) ** 2))])
-    rise = (corner - heel) / np.linalg.norm(corner - heel)
-    normal = np.cross([1.0, 0.0, 0.0], rise)
-    # the loop a tape makes there: the convex hull of the two bodies' exact plane sections
-    ends = np.vstack([trimesh.intersections.mesh_plane(m, normal, heel).reshape(-1, 3) for m in _phantom_meshes()])
-    in_plane = np.column_stack([ends[:, 0], (ends - heel) @ rise])
-    expected = ConvexHull(in_plane).area  # a 2-D hull's "area" is its perimeter
+    loops = []
+    for tilt in np.radians(np.arange(20.0, 75.01, 0.5)):
+        rise = np.array([0.0, np.cos(tilt), np.sin(tilt)])
+        normal = np.cross([1.0, 0.0, 0.0], rise)
+        ends = np.vstack([trimesh.intersections.mesh_plane(m, normal, heel).reshape(-1, 3) for m in _phantom_meshes()])
+        far = ends[np.argmax((ends - heel) @ rise)]
+        # over the ankle, and closed below the part of the scan it is measured on (80 mm above B)
+        if -65.0 + 0.15 * 250 <= far[1] <= -65.0 + 0.55 * 250 and far[2] < 70.0:
+            loops.append(ConvexHull(np.column_stack([ends[:, 0], (ends - heel) @ rise])).area)  # 2-D: the perimeter
     found = measures.heel_instep_girth
-    assert found.value_mm == pytest.approx(expected, abs=3.0)
-    assert np.linalg.norm(np.array(found.at_mm) - (heel + corner) / 2) < 5.0
+    assert found.value_mm == pytest.approx(min(loops), abs=3.0)
+    assert measures.ball_girth.value_mm < found.value_mm < _ellipse_perimeter(HALF_LENGTH, HALF_HEIGHT)
+    assert heel[1] < found.at_mm[1] < ball_y
 
 
 def test_a_cut_foot_and_a_scan_without_its_foot_say_why():

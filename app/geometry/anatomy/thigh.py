@@ -1,0 +1,159 @@
+"""The order form's points above the calf, measured from the scan as a tape would: E, the
+middle of the knee; G, the top of the thigh below the gluteal fold; F, the middle of the
+thigh between them (RAL-GZ 387's cE, cF, cG, a thigh-high AG stocking's points).
+
+Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's right).
+Arrays: points (n, 3), faces (f, 3) or None.  Girths are tape girths (the convex hull of
+the section, :func:`app.geometry.sections.tape_girths`) in planes perpendicular to the
+leg's axis, every STEP_MM from D.  Heights are along the calf frame's z: on a standing
+leg the thigh continues the shank's axis within a few degrees (the femur's 5-9 degree
+valgus tilts the plane by as much; a tape reads cos 7 deg = 0.7% more); a bent knee (its
+thigh cut free of the shank by the placement) has no thigh here, and says so.
+
+- **E, the middle of the knee.**  Going up from the knee waist D the girth rises over the
+  knee's bulge (the femoral condyles and the patella), stays nearly level across it, and
+  rises again along the thigh.  E is the middle of that level stretch: the height of the
+  smallest girth slope (the slope over +-SLOPE_HALF_MM) between D + 20 mm and D + 150 mm.
+  ANSUR II puts the mid-patella 17 +- 9 mm above the tibial plateau (6,068 subjects); on
+  the Visible Human male, whose D is 456 mm above the floor, E lands 50 mm above D, where
+  the ANSUR proportions of a 1.8 m man put the mid-patella.
+- **G, the top of the thigh.**  Behind the thigh the skin runs down from the buttock into
+  the thigh's back at the gluteal fold, a corner in the posterior profile (the rearmost
+  point of each STEP_MM of height) where the profile's slope turns from the thigh's
+  gentle one to the buttock's steep one.  G is that corner: the largest drop of the
+  slope between the thigh's back (100 mm above E) and the buttock's rearmost point.  A
+  scan without a buttock (its rearmost point at the scan's top, as a body's leg cut by
+  the placement below the hips has) has no G.
+- **F** is halfway between E and G (RAL-GZ 387: the middle of the thigh).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.geometry.sections import mesh_section_segments, tape_girths
+
+STEP_MM = 2.0
+#: the knee's level stretch is searched this far above D, mm
+KNEE_WINDOW_MM = (20.0, 150.0)
+SLOPE_HALF_MM = 10.0
+#: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
+#: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
+#: the skin above it back forward by at least this much, mm
+FOLD_MIN_BEND = 0.3
+BUTTOCK_BELOW_TOP_MM = 10.0
+BUTTOCK_RETURN_MM = 5.0
+CLOUD_PROFILE_HALF_MM = 4.0
+#: the thigh's back, where the fold's chord starts: this far above E, mm
+THIGH_BACK_ABOVE_E_MM = 100.0
+
+
+@dataclass(frozen=True)
+class LevelPoint:
+    """A point of the leg at a height: ``girth_mm`` (tape) and ``height_mm`` (calf
+    frame), or None with the ``reason``."""
+
+    name: str
+    girth_mm: float | None
+    height_mm: float | None
+    reason: str | None = None
+
+    def as_dict(self) -> dict:
+        return {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class ThighMeasures:
+    knee: LevelPoint  # E
+    mid_thigh: LevelPoint  # F
+    top_of_thigh: LevelPoint  # G
+
+    def as_dict(self) -> dict:
+        return {"cE": self.knee.as_dict(), "cF": self.mid_thigh.as_dict(), "cG": self.top_of_thigh.as_dict()}
+
+
+def _none(reason: str) -> ThighMeasures:
+    return ThighMeasures(LevelPoint("E", None, None, reason), LevelPoint("F", None, None, reason),
+                         LevelPoint("G", None, None, reason))
+
+
+def _posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+    """The rearmost y (mm) of the leg at each height (k,), evenly spaced by STEP_MM; NaN
+    where there is nothing.  A mesh: its exact plane sections' segment ends
+    (:func:`app.geometry.sections.mesh_section_segments`); a cloud: the points within
+    CLOUD_PROFILE_HALF_MM of the height (a sparse cloud's rearmost point is otherwise
+    missing from some slabs)."""
+    rear = np.full(len(heights), np.inf)
+    if faces is not None and len(faces):
+        plane, segments = mesh_section_segments(points, faces, heights)
+        np.minimum.at(rear, np.repeat(plane, 2), segments[:, :, 1].ravel())
+    else:
+        index = np.rint((points[:, 2] - heights[0]) / STEP_MM).astype(np.int64)
+        inside = (index >= 0) & (index < len(heights))
+        np.minimum.at(rear, index[inside], points[inside, 1])
+        reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
+        padded = np.pad(rear, reach, constant_values=np.inf)
+        rear = np.lib.stride_tricks.sliding_window_view(padded, 2 * reach + 1).min(axis=1)
+    rear[~np.isfinite(rear)] = np.nan
+    return rear
+
+
+def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> int | None:
+    """The index of the gluteal fold in ``heights`` (k,), or None.  ``rear`` (k,) the
+    posterior profile (rearmost y, mm; NaN where empty).  The buttock is the profile's
+    rearmost bulge above ``above_mm``: its rearmost point must lie BUTTOCK_BELOW_TOP_MM
+    under the scan's top and the skin above it come forward again (else the scan was cut
+    through the buttock or below it).  The fold is the sharpest bend of the profile below
+    it: the largest drop of the profile's slope dy/dz (over +-SLOPE_HALF_MM, each side of
+    the height), at least FOLD_MIN_BEND."""
+    lag = int(round(SLOPE_HALF_MM / STEP_MM))
+    valid = np.flatnonzero(np.isfinite(rear) & (heights >= above_mm))
+    if len(valid) < 6 * lag:
+        return None
+    back = int(valid[np.argmin(rear[valid])])
+    above = np.flatnonzero(np.isfinite(rear) & (heights > heights[back]))
+    if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
+        return None
+    filled = np.interp(heights, heights[np.isfinite(rear)], rear[np.isfinite(rear)])
+    slope = np.full(len(heights), np.nan)
+    slope[lag:-lag] = (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+    bend = np.full(len(heights), -np.inf)
+    bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
+    search = valid[valid < back]
+    bend_here = np.where(np.isfinite(bend[search]), bend[search], -np.inf)
+    if not len(search) or bend_here.max() < FOLD_MIN_BEND:
+        return None
+    return int(search[np.argmax(bend_here)])
+
+
+def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
+    """E, F, G of the module docstring (mm), or why not."""
+    if knee_bent:
+        return _none("the knee is bent: the thigh is cut free of the shank (a thigh-high stocking is measured standing)")
+    top = float(points[:, 2].max())
+    if top < d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM:
+        return _none(f"the scan ends {top - d_mm:.0f} mm above D, below the top of the knee")
+    heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
+    girth = tape_girths(points, faces, heights)
+    lag = int(round(SLOPE_HALF_MM / STEP_MM))
+    slope = np.full(len(heights), np.nan)
+    slope[lag:-lag] = (girth[2 * lag:] - girth[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+    window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
+    if not window.any():
+        return _none("the knee has no closed sections in the scan (a hole or a crop)")
+    e = int(np.flatnonzero(window)[np.argmin(slope[window])])
+    knee = LevelPoint("E", float(girth[e]), float(heights[e]))
+    # G: the gluteal fold, the corner of the posterior profile below the buttock
+    rear = _posterior_profile(points, faces, heights)
+    g = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
+    reason = "the scan stops below the gluteal fold (the top of the thigh)"
+    if g is None:
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
+    if not np.isfinite(girth[g]):
+        reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
+    f = int(round((e + g) / 2))
+    return ThighMeasures(knee, LevelPoint("F", float(girth[f]), float(heights[f])),
+                         LevelPoint("G", float(girth[g]), float(heights[g])))

@@ -1,0 +1,81 @@
+"""The thigh's points of the order form (app.geometry.anatomy.thigh): on a leg of
+revolution whose knee, thigh and gluteal fold are placed by construction, on scans that
+stop short or have a bent knee, and on real scans."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.geometry.anatomy.thigh import thigh_measures
+from app.geometry.placement.place import place_leg
+from tests.conftest import fitted
+
+D = 250.0  # the knee waist, mm above B
+KNEE_CROWN = 70.0  # above D: where the girth rises least
+FOLD = 380.0  # above D: where the back of the thigh turns into the buttock
+
+
+def _radius(z: np.ndarray) -> np.ndarray:
+    """Section radius (mm) at z mm above D: slope 0.02 + 3e-5 (z - 70)^2 up to 150 mm (its
+    least at the knee's crown, 70 mm), then straight on with the slope it had there."""
+    knee = 57.0 + 0.02 * z + 1e-5 * (z - KNEE_CROWN) ** 3 + 1e-5 * KNEE_CROWN**3
+    at, slope = 150.0, 0.02 + 3e-5 * (150.0 - KNEE_CROWN) ** 2
+    thigh = 57.0 + 0.02 * at + 1e-5 * (at - KNEE_CROWN) ** 3 + 1e-5 * KNEE_CROWN**3 + slope * (z - at)
+    return np.where(z <= at, knee, thigh)
+
+
+def _centre_y(z: np.ndarray) -> np.ndarray:
+    """The sections' centre moves back 1 mm per mm above the fold for 50 mm (the buttock),
+    then forward 1.5 mm per mm (its top)."""
+    back = np.clip(z - FOLD, 0.0, 50.0)
+    forward = np.clip(z - FOLD - 50.0, 0.0, None)
+    return -back + 1.5 * forward
+
+
+def _leg(top: float = FOLD + 80.0, step: float = 1.0) -> np.ndarray:
+    """A cloud (n, 3) calf-frame mm: circles every ``step`` mm from D to ``top`` above D."""
+    z = np.arange(0.0, top, step)
+    angles = np.radians(np.arange(0.0, 360.0, 1.0))
+    r, cy = _radius(z)[:, None], _centre_y(z)[:, None]
+    x, y = r * np.cos(angles), cy + r * np.sin(angles)
+    return np.column_stack([x.ravel(), y.ravel(), np.repeat(D + z, len(angles))])
+
+
+def test_a_leg_of_revolution_gives_its_knee_its_fold_and_the_middle_of_its_thigh():
+    found = thigh_measures(_leg(), None, D, knee_bent=False)
+    assert found.knee.height_mm == pytest.approx(D + KNEE_CROWN, abs=4.0)
+    assert found.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=4.0)
+    assert found.mid_thigh.height_mm == pytest.approx(D + (KNEE_CROWN + FOLD) / 2, abs=4.0)
+    for point in (found.knee, found.mid_thigh, found.top_of_thigh):
+        expected = 2 * np.pi * _radius(np.array([point.height_mm - D]))[0]  # a circle's tape girth
+        assert point.girth_mm == pytest.approx(expected, abs=1.0)
+
+
+def test_a_scan_that_stops_short_or_bends_its_knee_says_why():
+    below_fold = thigh_measures(_leg(top=FOLD - 20.0), None, D, knee_bent=False)
+    assert below_fold.knee.girth_mm is not None  # the knee is there
+    assert below_fold.top_of_thigh.girth_mm is None and "below the gluteal fold" in below_fold.top_of_thigh.reason
+    assert below_fold.mid_thigh.reason == below_fold.top_of_thigh.reason
+    knee_high = thigh_measures(_leg(top=100.0), None, D, knee_bent=False)
+    assert knee_high.knee.girth_mm is None and "ends 99 mm above D" in knee_high.knee.reason
+    bent = thigh_measures(_leg(), None, D, knee_bent=True)
+    assert bent.top_of_thigh.girth_mm is None and "bent" in bent.top_of_thigh.reason
+
+
+def test_real_legs_as_meshes_and_as_their_vertices():
+    """The BodyParts3D right leg reaches the hip: E, F, G agree between its mesh and its
+    vertices; the Visible Human bodies' legs are taken below the hips (40% of the body),
+    so their G is not in the scan, and says so."""
+    scan, result = fitted("bodyparts3d_right_leg.stl", None)
+    leg = place_leg(scan, None)
+    local = leg.placement.frame.to_calf(leg.points)
+    d = result.landmarks.D.height_mm
+    mesh, cloud = thigh_measures(local, leg.faces, d, False), thigh_measures(local, None, d, False)
+    for a, b in ((mesh.knee, cloud.knee), (mesh.mid_thigh, cloud.mid_thigh), (mesh.top_of_thigh, cloud.top_of_thigh)):
+        assert a.height_mm == pytest.approx(b.height_mm, abs=5.0) and a.girth_mm == pytest.approx(b.girth_mm, abs=6.0)
+    assert d < mesh.knee.height_mm < mesh.mid_thigh.height_mm < mesh.top_of_thigh.height_mm
+    assert result.thigh is not None and result.thigh.top_of_thigh.girth_mm == pytest.approx(mesh.top_of_thigh.girth_mm)
+    scan, result = fitted("vh_female_skin.glb", "right")
+    assert result.thigh.knee.girth_mm is not None and result.thigh.top_of_thigh.girth_mm is None
+    assert "gluteal fold" in result.thigh.top_of_thigh.reason
