@@ -13,6 +13,7 @@ from app.geometry.garment.design import (
     DEFAULT_RESOLUTION_MM,
     DEFAULT_STANDARD,
     DEFAULT_STEP_MM,
+    DEFAULT_STOCKING_TYPE,
     DEFAULT_TOE,
 )
 from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
@@ -78,6 +79,26 @@ class ChartPoint(BaseModel):
     reason: str | None = Field(None, max_length=500, description="why it is not measured")
 
 
+class ThighProfile(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    heights_mm: list[Annotated[float, Field(ge=-2000, le=2000)]] = Field(min_length=2, max_length=400)
+    tape_girth_mm: list[Annotated[float, Field(gt=0, le=1000)]] = Field(min_length=2, max_length=400)
+
+
+class RecordChart(BaseModel):
+    """The order form's points off the calf (schema version 3), each measured or with the
+    reason it is not; with G, the thigh's tape girth profile from D to G."""
+
+    model_config = ConfigDict(extra="forbid")
+    foot_length: ChartPoint | None = None
+    cA: ChartPoint | None = None
+    cY: ChartPoint | None = None
+    cE: ChartPoint | None = None
+    cF: ChartPoint | None = None
+    cG: ChartPoint | None = None
+    thigh_profile: ThighProfile | None = Field(None, description="tape girths from D to G (a thigh-high design knits from them)")
+
+
 class CalfRecordBody(BaseModel):
     """A calf record (see app.records.codec for every field)."""
 
@@ -94,7 +115,7 @@ class CalfRecordBody(BaseModel):
                      Field(min_length=4, max_length=4)] = Field(
         description="4x4: calf-frame mm -> the scan's own coordinates and units")
     landmarks: dict[Literal["B", "B1", "C", "D"], Landmark] = Field(default_factory=dict)
-    chart: dict[Literal["foot_length", "cA", "cY", "cE", "cF", "cG"], ChartPoint] | None = Field(
+    chart: RecordChart | None = Field(
         None, description="version 3: the order form's points off the calf (foot, knee, thigh) measured from the scan")
     fit: dict = Field(default_factory=dict)
 
@@ -249,6 +270,8 @@ class DesignRequest(BaseModel):
     resolution_mm: float = Field(DEFAULT_RESOLUTION_MM, ge=0.01, le=10,
                                  description="resolution of the relaxed circumferences L0 (0.01-10 mm)")
     toe: Literal["closed", "open"] = Field(DEFAULT_TOE, description="the stocking's toe, carried to the order")
+    stocking_type: Literal["AD", "AG"] = Field(DEFAULT_STOCKING_TYPE, description="AD knee-high (B to D), AG thigh-high "
+                                               "(on to G: needs a record whose scan reaches the gluteal fold)")
 
 
 class DesignOut(BaseModel):

@@ -62,6 +62,8 @@ READABLE_VERSIONS = (1, 2, 3)
 #: the chart's points (version 3) and the largest value any of them can have, mm
 CHART_POINTS = ("foot_length", "cA", "cY", "cE", "cF", "cG")
 MAX_CHART_MM = 1000.0
+#: most samples of the stored thigh profile (D to G every 5 mm: a 2 m leg needs ~200)
+MAX_THIGH_PROFILE = 400
 #: bounds of an importable record: a calf in its own frame (B at the origin, z along
 #: the leg) lies within a few hundred mm of the origin; these leave room for a whole
 #: leg and refuse numbers that would make every export and measurement run away
@@ -183,10 +185,14 @@ def _parse_chart(chart) -> dict:
     or null, height_mm or null, reason or null}; a point with no value needs its reason."""
     if chart is None:
         return {}
-    if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS):
-        raise _invalid(f"chart must be an object of {', '.join(CHART_POINTS)}")
-    clean = {}
+    if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS) | {"thigh_profile"}:
+        raise _invalid(f"chart must be an object of {', '.join(CHART_POINTS)} and thigh_profile")
+    clean: dict = {}
+    if "thigh_profile" in chart:
+        clean["thigh_profile"] = _parse_thigh_profile(chart["thigh_profile"])
     for name, entry in chart.items():
+        if name == "thigh_profile":
+            continue
         if not isinstance(entry, dict):
             raise _invalid(f"chart.{name} must be an object")
         value, at, reason, height = entry.get("value_mm"), entry.get("at_mm"), entry.get("reason"), entry.get("height_mm")
@@ -209,6 +215,22 @@ def _parse_chart(chart) -> dict:
                        **({"at_mm": at} if "at_mm" in entry else {}),
                        **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {})}
     return clean
+
+
+def _parse_thigh_profile(profile) -> dict:
+    """chart.thigh_profile: {heights_mm (k,) rising, tape_girth_mm (k,) in (0, MAX_CHART_MM]},
+    2 <= k <= MAX_THIGH_PROFILE."""
+    if not isinstance(profile, dict):
+        raise _invalid("chart.thigh_profile must be an object")
+    heights = _finite_array(profile.get("heights_mm"), "chart.thigh_profile.heights_mm", 1)
+    girths = _finite_array(profile.get("tape_girth_mm"), "chart.thigh_profile.tape_girth_mm", 1)
+    if not 2 <= len(heights) <= MAX_THIGH_PROFILE or len(girths) != len(heights):
+        raise _invalid(f"chart.thigh_profile needs 2-{MAX_THIGH_PROFILE} heights and as many girths")
+    if np.any(np.diff(heights) <= 0) or np.abs(heights).max() > MAX_CONTROL_MM:
+        raise _invalid(f"chart.thigh_profile.heights_mm must rise and lie within {MAX_CONTROL_MM:g} mm")
+    if girths.min() <= 0 or girths.max() > MAX_CHART_MM:
+        raise _invalid(f"chart.thigh_profile.tape_girth_mm must lie in (0, {MAX_CHART_MM:g}] mm")
+    return {"heights_mm": heights.tolist(), "tape_girth_mm": girths.tolist()}
 
 
 def _invalid(detail: str) -> FitFailure:

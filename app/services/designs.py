@@ -56,6 +56,7 @@ def inputs_from_request(data: dict) -> DesignInputs:
         step_mm=float(data.get("step_mm", defaults.step_mm)),
         resolution_mm=float(data.get("resolution_mm", defaults.resolution_mm)),
         toe=str(data.get("toe", defaults.toe)),
+        stocking_type=str(data.get("stocking_type", defaults.stocking_type)),
     )
 
 
@@ -69,12 +70,14 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
         "step_mm": inputs.step_mm,
         "resolution_mm": inputs.resolution_mm,
         "toe": inputs.toe,
+        "stocking_type": inputs.stocking_type,
     }
 
 
 def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
     """The design of ``record`` as stored and sent (:func:`design_document`)."""
-    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs))
+    chart = record.chart if record.schema_version >= 3 else None
+    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart))
 
 
 def _check_document(check: DesignCheck) -> dict:
@@ -125,6 +128,16 @@ def design_document(design: StockingDesign) -> dict:
         "hot_spots": [_hot_spot_document(s) for s in design.hot_spots],
         "side": design.side,
         "side_assumed": design.side_assumed,
+        "stocking_type": design.stocking_type,
+        "thigh": None if design.thigh is None else {
+            "model": "mean pressure 2 pi T / L on the thigh's tape girths (the surface ends at D: no local pressure "
+                     "or hot spots above it)",
+            "levels": {name: {"height_mm": lv.height_mm, "target_mmHg": lv.target_mmhg,
+                              "mean_pressure_mmHg": lv.mean_pressure_mmhg,
+                              "stretched_circumference_mm": lv.stretched_circumference_mm,
+                              "relaxed_circumference_mm": lv.relaxed_circumference_mm, "strain": lv.strain,
+                              "tension_N_per_cm": lv.tension_n_per_cm} for name, lv in design.thigh.levels.items()},
+        },
         "knitting_spec": [
             {"height_mm": float(h), "target_mmHg": float(t), "stretched_circumference_mm": float(L),
              "tension_N_per_cm": float(T), "strain": float(e), "relaxed_circumference_mm": float(L0),

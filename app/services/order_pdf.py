@@ -173,7 +173,7 @@ def order_pdf(order: dict) -> bytes:
         Paragraph(escape(_size_text(order["size_decision"])), body),
         Paragraph("Warnings", heading),
         *[Paragraph("- " + escape(w), body) for w in order["warnings"]],
-        Paragraph("Knitting specification (B to D)", heading),
+        Paragraph(f"Knitting specification (B to {'G' if order['stocking']['type'] == 'AG' else 'D'})", heading),
         _knitting_table(order, small),
     ]
     document.build(story, onFirstPage=footer, onLaterPages=footer)

@@ -25,9 +25,7 @@ from app.services.records import record_chart
 from app.services.size_charts import EXAMPLE_CHART_ID, SizeChartService
 
 ORDER_FORMAT = "calf-nurbs order 1"
-#: a design made from a calf record (B to D, paper section 2) is a knee-high stocking
-DESIGNED_TYPE = "AD"
-#: samples of the leg diagram's outline from B to D
+#: samples of the leg diagram's outline from B to D (and to G of a thigh-high)
 DIAGRAM_SAMPLES = 41
 
 
@@ -54,17 +52,28 @@ def _warnings(record: CalfRecord, result: dict, inputs: dict, measured, decision
         warnings.append("the design was made before the toe was asked: closed toe assumed")
     if decision["chart"]["example"]:
         warnings.append("the size decision is against the shipped EXAMPLE chart (ANSUR II percentiles), not a product's chart")
-    warnings.append("the knitting specification covers B to D, the calf the scan models; foot and top band are made "
-                    "from cA, cY and cD to the manufacturer's practice")
+    if result.get("stocking_type", "AD") == "AG":
+        warnings.append("the knitting specification covers B to G; above D it is designed on the thigh's tape girths "
+                        "(mean pressure, no local pressure map); foot and top band are made from cA, cY and cG to "
+                        "the manufacturer's practice")
+    else:
+        warnings.append("the knitting specification covers B to D, the calf the scan models; foot and top band are made "
+                        "from cA, cY and cD to the manufacturer's practice")
     return warnings
 
 
-def leg_outline(record: CalfRecord, samples: int = DIAGRAM_SAMPLES) -> list[dict]:
+def leg_outline(record: CalfRecord, thigh_high: bool = False, samples: int = DIAGRAM_SAMPLES) -> list[dict]:
     """The leg diagram's outline: the surface's tape girth (mm) at ``samples`` heights (mm,
-    calf frame) evenly from B to D (:func:`app.geometry.measures.surface_girths.girths`)."""
+    calf frame) evenly from B to D (:func:`app.geometry.measures.surface_girths.girths`),
+    and for a thigh-high on along the record's thigh profile to G."""
     low, high = record.landmarks["B"]["height_mm"], record.landmarks["D"]["height_mm"]
     heights = np.linspace(low, high, samples)
-    return [{"height_mm": float(g.height_mm), "tape_girth_mm": float(g.tape_mm)} for g in girths(record.surface, heights)]
+    outline = [{"height_mm": float(g.height_mm), "tape_girth_mm": float(g.tape_mm)} for g in girths(record.surface, heights)]
+    profile = (record.chart or {}).get("thigh_profile") if thigh_high else None
+    if profile:
+        outline += [{"height_mm": float(z), "tape_girth_mm": float(g)}
+                    for z, g in zip(profile["heights_mm"], profile["tape_girth_mm"]) if z > high]
+    return outline
 
 
 def order_document(design: Design, row: Record, record: CalfRecord, decision: dict, issued_at: datetime) -> dict:
@@ -72,7 +81,8 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
     result, inputs = design.result, design.inputs
     sole = (record.scan or {}).get("sole_mm")
     sole = float(sole) if isinstance(sole, (int, float)) and np.isfinite(sole) else None
-    measured = record_chart(record, DESIGNED_TYPE)
+    stocking_type = result.get("stocking_type", "AD")
+    measured = record_chart(record, stocking_type)
     klass = result.get("class")
     return {
         "format": ORDER_FORMAT,
@@ -85,8 +95,8 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
         "side": result.get("side"),
         "side_assumed": bool(result.get("side_assumed")),
         "stocking": {
-            "type": DESIGNED_TYPE,
-            "description": STOCKING_TYPES[DESIGNED_TYPE],
+            "type": stocking_type,
+            "description": STOCKING_TYPES[stocking_type],
             "toe": inputs.get("toe", "closed"),
             "standard": klass["standard"] if klass else inputs.get("standard"),
             "compression_class": klass["class"] if klass else None,
@@ -97,7 +107,7 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
         },
         "measurements": measured,
         "sole_height_mm": sole,
-        "leg_outline": leg_outline(record),
+        "leg_outline": leg_outline(record, stocking_type == "AG"),
         "size_decision": decision,
         "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),
         "verdict_reasons": result.get("verdict_reasons") or [],

@@ -35,7 +35,8 @@ def test_design_is_stored_with_its_inputs_and_meets_the_class(client, record_id,
     again = client.get(f"/api/v1/designs/{design['id']}").json()
     assert again["inputs"] == {"standard": "RAL", "compression_class": "II", "targets_mmHg": None,
                                "fabric": {"stiffness_n_per_cm": 10.0, "max_strain": 1.0},
-                               "hot_spot_limit_mmHg": 60.0, "step_mm": 5.0, "resolution_mm": 1.0, "toe": "closed"}
+                               "hot_spot_limit_mmHg": 60.0, "step_mm": 5.0, "resolution_mm": 1.0, "toe": "closed",
+                               "stocking_type": "AD"}
     assert again["record_id"] == record_id and again["passed"] is True
     b = again["landmarks"]["B"]
     assert 23 <= b["mean_pressure_mmHg"] <= 32 and b["mean_pressure_kPa"] == pytest.approx(b["mean_pressure_mmHg"] * 0.133322, rel=1e-6)

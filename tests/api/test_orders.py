@@ -119,3 +119,46 @@ def test_a_registered_chart_decides_and_the_refusals_say_what_is_wrong(client, d
     assert missing_design.status_code == 404 and missing_design.json()["code"] == "design_not_found"
     png = client.get(f"/api/v1/designs/{design['id']}/order", headers={"Accept": "image/png"})
     assert png.status_code == 406 and "application/pdf" in png.json()["detail"]
+
+
+def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_is_refused(client, design):
+    """The BodyParts3D leg reaches the gluteal fold: an AG design grades on from D to G on
+    its thigh girths and its order asks for (and has) cE, cF, cG; the Visible Human
+    female's leg is taken below the hips, so AG is refused saying why."""
+    made = client.post(f"/api/v1/records/{design['record_id']}/designs",
+                       json={"compression_class": "II", "stocking_type": "AG", "fabric": {"stiffness_n_per_cm": 10.0}})
+    assert made.status_code == 201, made.text
+    ag = made.json()
+    record = client.get(f"/api/v1/records/{design['record_id']}").json()
+    g = record["chart"]["cG"]["height_mm"]
+    assert ag["stocking_type"] == "AG" and set(ag["thigh"]["levels"]) == {"E", "F", "G"}
+    spec = ag["knitting_spec"]
+    heights = [row["height_mm"] for row in spec]
+    assert heights == sorted(heights) and heights[-1] == pytest.approx(g) and heights[0] == 0.0
+    # graded on: the predicted pressure falls from D to G, and each thigh row's mean
+    # pressure is Laplace's 2 pi T / L of its knitted row (within rounding of L0)
+    d = record["landmarks"]["D"]["height_mm"]
+    thigh = [row for row in spec if row["height_mm"] > d]
+    assert thigh[0]["predicted_mean_mmHg"] > thigh[-1]["predicted_mean_mmHg"]
+    for row in thigh:
+        laplace = 2 * 3.141592653589793 * row["tension_N_per_cm"] * 1e5 / row["stretched_circumference_mm"] / 133.322
+        assert row["predicted_mean_mmHg"] == pytest.approx(laplace, rel=1e-6)
+        assert row["predicted_mean_mmHg"] == pytest.approx(row["target_mmHg"], rel=0.03)
+    names = [c["name"] for c in ag["checks"]]
+    assert "graded D > E > F > G" in names and any(n.startswith("G 20%-40% of B") for n in names)
+    order = client.get(f"/api/v1/designs/{ag['id']}/order").json()
+    assert order["stocking"]["type"] == "AG" and order["stocking"]["description"].startswith("thigh-high")
+    needed = {m["point"]: m for m in order["measurements"] if m["needed"]}
+    assert {"cE", "cF", "cG", "lE", "lF", "lG"} <= set(needed) and all(needed[p]["value_mm"] for p in ("cE", "cF", "cG"))
+    assert order["leg_outline"][-1]["height_mm"] == pytest.approx(g)
+    pdf = client.get(f"/api/v1/designs/{ag['id']}/order", params={"format": "pdf"})
+    assert "Knitting specification (B to G)" in "".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(pdf.content)).pages)
+
+    upload = client.post("/api/v1/scans", content=(REAL / "vh_female_skin.glb").read_bytes(), params={"side": "right"},
+                         headers={"Content-Type": "model/gltf-binary"})
+    body = wait_for_job(client, upload.headers["location"])
+    refused = client.post(f"/api/v1/records/{body['record_id']}/designs",
+                          json={"stocking_type": "AG", "fabric": {"stiffness_n_per_cm": 10.0}})
+    assert refused.status_code == 422 and refused.json()["code"] == "invalid_target"
+    assert "thigh-high (AG) design needs cE, cF and cG" in refused.json()["detail"]
+    assert "gluteal fold" in refused.json()["detail"]

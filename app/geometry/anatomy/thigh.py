@@ -36,6 +36,8 @@ import numpy as np
 from app.geometry.sections import mesh_section_segments, tape_girths
 
 STEP_MM = 2.0
+#: the stored thigh profile's spacing, mm (a knitting specification's usual step)
+PROFILE_STEP_MM = 5.0
 #: the knee's level stretch is searched this far above D, mm
 KNEE_WINDOW_MM = (20.0, 150.0)
 SLOPE_HALF_MM = 10.0
@@ -69,9 +71,16 @@ class ThighMeasures:
     knee: LevelPoint  # E
     mid_thigh: LevelPoint  # F
     top_of_thigh: LevelPoint  # G
+    #: the tape girth profile from D to G every PROFILE_STEP_MM, (k,) heights and (k,)
+    #: girths mm, when G is measured (a thigh-high design knits from it); else empty
+    profile_heights_mm: tuple[float, ...] = ()
+    profile_girths_mm: tuple[float, ...] = ()
 
     def as_dict(self) -> dict:
-        return {"cE": self.knee.as_dict(), "cF": self.mid_thigh.as_dict(), "cG": self.top_of_thigh.as_dict()}
+        out = {"cE": self.knee.as_dict(), "cF": self.mid_thigh.as_dict(), "cG": self.top_of_thigh.as_dict()}
+        if self.profile_heights_mm:
+            out["thigh_profile"] = {"heights_mm": list(self.profile_heights_mm), "tape_girth_mm": list(self.profile_girths_mm)}
+        return out
 
 
 def _none(reason: str) -> ThighMeasures:
@@ -155,5 +164,9 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
     f = int(round((e + g) / 2))
+    finite = np.isfinite(girth[: g + 1])
+    profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
+    profile_g = np.interp(profile_z, heights[: g + 1][finite], girth[: g + 1][finite])
     return ThighMeasures(knee, LevelPoint("F", float(girth[f]), float(heights[f])),
-                         LevelPoint("G", float(girth[g]), float(heights[g])))
+                         LevelPoint("G", float(girth[g]), float(heights[g])),
+                         tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g))

@@ -60,6 +60,7 @@ from app.geometry.garment.standards import (
     normalize_class,
     validate_targets,
 )
+from app.geometry.garment.thigh_design import ThighPart, thigh_part
 from app.geometry.spline.nurbs import NurbsSurface
 
 #: Default limit for local pressure hot spots, mmHg.  Partsch et al. (Dermatol Surg 2008;
@@ -79,6 +80,9 @@ DEFAULT_RESOLUTION_MM = 1.0
 #: the toe when a request names none (the API's default since designs had no toe; the order
 #: prints it, so a clinic that wants an open toe says so)
 DEFAULT_TOE = "closed"
+#: knee-high unless asked: every record has a calf, not every scan a thigh
+DEFAULT_STOCKING_TYPE = "AD"
+STOCKING_TYPES = ("AD", "AG")
 
 
 @dataclass(frozen=True)
@@ -152,7 +156,12 @@ class StockingDesign:
     hot_spot_limit_mmhg: float
     side: str | None
     side_assumed: bool
-    knitting_spec: KnittingSpec
+    knitting_spec: KnittingSpec  # B to D, and on to G for a thigh-high
+    thigh: ThighPart | None = None  # a thigh-high's part above D
+
+    @property
+    def stocking_type(self) -> str:
+        return "AG" if self.thigh is not None else "AD"
 
     @property
     def passed(self) -> bool:
@@ -191,16 +200,23 @@ class DesignInputs:
     step_mm: float = DEFAULT_STEP_MM
     resolution_mm: float = DEFAULT_RESOLUTION_MM
     toe: str = DEFAULT_TOE  # "closed" | "open": the stocking's foot (the order carries it)
+    stocking_type: str = DEFAULT_STOCKING_TYPE  # "AD" knee-high, "AG" thigh-high (app.geometry.garment.thigh_design)
     n_around: int = 360
 
 
-def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs) -> StockingDesign:
+def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs,
+                    chart: dict | None = None) -> StockingDesign:
     """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
-    C, D; side: "left" | "right" | None.  Raises FitFailure (INVALID_TARGET,
-    INVALID_FABRIC, UNREACHABLE_PRESSURE) with the reason.
+    C, D; side: "left" | "right" | None; chart: the record's points off the calf (schema
+    version 3), which a thigh-high (``inputs.stocking_type`` "AG") needs: cE, cF, cG and
+    the thigh profile.  Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
+    UNREACHABLE_PRESSURE) with the reason.
     """
+    if inputs.stocking_type not in STOCKING_TYPES:
+        raise FitFailure(FailureReason.INVALID_TARGET, f"stocking_type must be one of {', '.join(STOCKING_TYPES)}")
+    thigh_chart = _thigh_chart(chart) if inputs.stocking_type == "AG" else None
     for name in LANDMARK_NAMES:
         if name not in landmarks:
             raise FitFailure(FailureReason.INVALID_RECORD, f"the record has no landmark {name}; a design needs B, B1, C and D")
@@ -270,20 +286,45 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     }
     p = {name: per_landmark[name].mean_pressure_mmhg for name in LANDMARK_NAMES}
     ratios = {f"{n}/B": p[n] / p["B"] for n in ("B1", "C", "D")}
+    checks = _checks(p, ratios, class_info)
+    spec = KnittingSpec(heights, target_mmhg, rings.hull_perimeter, tension_knit, strain_knit, relaxed_knit, mean)
+    thigh = None
+    if thigh_chart is not None:
+        profile, levels = thigh_chart
+        thigh = thigh_part(np.asarray(profile["heights_mm"]), np.asarray(profile["tape_girth_mm"]), levels,
+                           targets["B"], p["D"], inputs.fabric, inputs.step_mm, inputs.resolution_mm)
+        checks += [DesignCheck(*check) for check in thigh.checks]
+        spec = KnittingSpec(*(np.concatenate([getattr(spec, f), getattr(thigh, f)]) for f in (
+            "heights_mm", "target_mmhg", "stretched_circumference_mm", "tension_n_per_cm", "strain",
+            "relaxed_circumference_mm", "predicted_mean_pa")))
     return StockingDesign(
         compression_class=class_info,
         targets_mmhg=targets,
         fabric=inputs.fabric,
         landmarks=per_landmark,
         ratios=ratios,
-        checks=tuple(_checks(p, ratios, class_info)),
+        checks=tuple(checks),
         hot_spots=tuple(find_hot_spots(rings, local, inputs.hot_spot_limit_mmhg * PA_PER_MMHG, directions)),
         hot_spot_limit_mmhg=inputs.hot_spot_limit_mmhg,
         side=side,
         side_assumed=side_assumed,
-        knitting_spec=KnittingSpec(heights, target_mmhg, rings.hull_perimeter, tension_knit, strain_knit,
-                                   relaxed_knit, mean),
+        knitting_spec=spec,
+        thigh=thigh,
     )
+
+
+def _thigh_chart(chart: dict | None) -> tuple[dict, dict[str, float]]:
+    """The thigh profile and the heights of E, F, G a thigh-high needs, or FitFailure
+    INVALID_TARGET saying what the record lacks (a bent knee, a scan below the hips)."""
+    chart = chart or {}
+    missing = [name for name in ("cE", "cF", "cG") if (chart.get(name) or {}).get("value_mm") is None]
+    if missing or not chart.get("thigh_profile"):
+        reasons = sorted({str(r) for name in missing if (r := (chart.get(name) or {}).get("reason"))})
+        why = "; ".join(reasons) if reasons else "the record has no thigh measurements (fitted before 2026-12-02)"
+        raise FitFailure(FailureReason.INVALID_TARGET,
+                         f"a thigh-high (AG) design needs cE, cF and cG from the scan, and {', '.join(missing) or 'the thigh profile'} "
+                         f"is not there: {why}")
+    return chart["thigh_profile"], {name[1]: float(chart[name]["height_mm"]) for name in ("cE", "cF", "cG")}
 
 
 def _checks(p: dict, ratios: dict, class_info: dict | None) -> list[DesignCheck]:

@@ -62,6 +62,19 @@ GRADIENT: dict[str, GradientRow] = {
           "source": "RAL-GZ 387: at D at most 70% of the pressure at B"},
 }
 
+#: The thigh of a thigh-high (AG) stocking, as fractions of the pressure at B: the values
+#: manufacturers and the compression literature commonly cite for RAL-GZ 387 profiles (F
+#: 30-60%, G 20-40% of B); they are not confirmed here as normative text of the standard,
+#: so they are advisory (a design outside them is "review", never "fail").  The graduation
+#: itself (pressure falling from D to G) is checked as normative, as below the knee.
+THIGH_GRADIENT: dict[str, GradientRow] = {
+    "F": {"range": (0.30, 0.60), "target": 0.40, "normative": False,
+          "source": "commonly cited (not confirmed normative): F 30-60% of B"},
+    "G": {"range": (0.20, 0.40), "target": 0.30, "normative": False,
+          "source": "commonly cited (not confirmed normative): G 20-40% of B"},
+}
+
+
 def normalize_class(standard: str, name: str) -> tuple[str, str, tuple]:
     """('RAL', 'II', (23, 32)) from loose spellings: 'ral', 'ccl2', '2', 'II'."""
     key = standard.strip().upper()
