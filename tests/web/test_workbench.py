@@ -367,6 +367,14 @@ def test_explicit_targets_and_the_classes_of_each_standard(served, page):
     page.get_by_role("button", name="Design the stocking").click()
     page.wait_for_url("**/#/designs/*", timeout=60_000)
     page.locator("#design-verdict").wait_for()
+    # a thigh-high: this leg reaches the gluteal fold, so the design runs on to G
+    page.get_by_role("link", name="← back to the record").click()
+    page.get_by_role("link", name="New design").click()
+    page.get_by_label("Stocking", exact=True).select_option("AG")
+    page.get_by_role("button", name="Design the stocking").click()
+    page.wait_for_url("**/#/designs/*", timeout=60_000)
+    expect(page.locator("#order")).to_contain_text("thigh-high (AG)", timeout=30_000)
+    assert page.locator("#knitting-spec tbody tr").count() > 100  # B to G every 5 mm
     assert page.console_errors == []
 
 

@@ -60,9 +60,12 @@ END_INSET_MM = 6.0
 #: see the scan below this height (mm above B; the loop tops out 20-50 mm above B)
 INSTEP_TOP_MM = 80.0
 INSTEP_TOP_MARGIN_MM = 10.0
-#: a cloud's loop: the slab's half thickness, mm, and the share of empty degrees allowed
+#: a cloud's loop: the slab's half thickness, mm, and the share of empty angle bins allowed
 LOOP_SLAB_MM = 2.0
 LOOP_MAX_EMPTY = 0.3
+#: the loop's radii are averaged over this many degrees each side (5 degrees is 5-9 mm of
+#: a foot's loop: the heel's ~30 mm curvature radius survives it)
+LOOP_SMOOTH_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -114,41 +117,47 @@ def _plane_girths(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarr
     """Tape girths in the planes {p : (p - origin) . basis[2] = offset}, basis (3, 3)
     orthonormal rows (the third the planes' normal); (k,) mm, NaN where no closed section.
 
-    The tape is the convex hull of the section.  A mesh: the hull of its exact plane
-    section's segment ends (:func:`app.geometry.sections.mesh_section_segments`).  A cloud:
-    the points within LOOP_SLAB_MM (or the cloud's median point spacing, if larger) of
-    the plane, read as their median radius in each
-    of up to 360 bins of angle (about 3 points a bin) around the slab's centroid (a scanner's noise would otherwise widen the hull of
-    the raw points by its outermost excursions), then the hull of that polygon; more than
-    LOOP_MAX_EMPTY of the bins empty is no closed section.  (The calf's polar fit,
+    The section's points - a mesh's exact plane-section segment ends
+    (:func:`app.geometry.sections.mesh_section_segments`), a cloud's points within
+    LOOP_SLAB_MM (or its median point spacing, if larger) of the plane - are read as their
+    median radius in bins of angle round their centroid (about 3 points a bin, at most
+    360; more than LOOP_MAX_EMPTY of them empty is no closed section), smoothed over
+    +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
+    excursions), and the tape is the convex hull of that loop.  (The calf's polar fit,
     :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
     harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
     q = (points - origin) @ basis.T
     girths = np.full(len(offsets), np.nan)
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(q, faces, offsets)
-        for k in np.unique(plane):  # one hull per plane: a handful of planes
-            ends = segments[plane == k].reshape(-1, 2)
-            if len(ends) >= 6:
-                girths[k] = ConvexHull(ends).area  # a 2-D hull's "area" is its perimeter
-        return girths
-    # a sparse cloud's slab must be as thick as its point spacing to hold a whole ring
-    half = max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
-    for k, offset in enumerate(offsets):
-        slab = q[np.abs(q[:, 2] - offset) < half, :2]
-        if len(slab) < 30:
-            continue
-        rel = slab - slab.mean(axis=0)
-        angle, radius = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
-        bins = int(np.clip(len(slab) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
-        median, _, _ = binned_statistic(angle, radius, "median", bins=bins, range=(-np.pi, np.pi))
-        filled = np.isfinite(median)
-        if filled.mean() < 1 - LOOP_MAX_EMPTY:
-            continue
-        centres = np.linspace(-np.pi, np.pi, bins + 1)[:-1] + np.pi / bins
-        radii = np.interp(centres, centres[filled], median[filled], period=2 * np.pi)
-        girths[k] = ConvexHull(np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])).area
+        sections = [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
+    else:
+        # a sparse cloud's slab must be as thick as its point spacing to hold a whole ring
+        half = max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
+        sections = [q[np.abs(q[:, 2] - offset) < half, :2] for offset in offsets]
+    for k, section in enumerate(sections):  # one loop per plane: a handful of planes
+        girths[k] = _loop_girth(section)
     return girths
+
+
+def _loop_girth(section: np.ndarray) -> float:
+    """The tape girth (mm) of a section's points (n, 2) (see :func:`_plane_girths`)."""
+    if len(section) < 30:
+        return float("nan")
+    rel = section - section.mean(axis=0)
+    angle, radius = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
+    bins = int(np.clip(len(section) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
+    median, _, _ = binned_statistic(angle, radius, "median", bins=bins, range=(-np.pi, np.pi))
+    filled = np.isfinite(median)
+    if filled.mean() < 1 - LOOP_MAX_EMPTY:
+        return float("nan")
+    centres = np.linspace(-np.pi, np.pi, bins + 1)[:-1] + np.pi / bins
+    radii = np.interp(centres, centres[filled], median[filled], period=2 * np.pi)
+    reach = int(round(np.radians(LOOP_SMOOTH_DEG) / (2 * np.pi / bins)))  # none when the bins are as wide
+    if reach:
+        kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
+        radii = np.convolve(np.r_[radii[-reach:], radii, radii[:reach]], kernel, mode="valid")  # circular mean
+    return float(ConvexHull(np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])).area)
 
 
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None) -> FootMeasures:

@@ -48,6 +48,10 @@ FOLD_MIN_BEND = 0.3
 BUTTOCK_BELOW_TOP_MM = 10.0
 BUTTOCK_RETURN_MM = 5.0
 CLOUD_PROFILE_HALF_MM = 4.0
+#: the back of the leg: this percentile of a section's y (the rearmost 2%), averaged over
+#: +-PROFILE_SMOOTH_MM of height
+REAR_PERCENTILE = 2.0
+PROFILE_SMOOTH_MM = 6.0
 #: the thigh's back, where the fold's chord starts: this far above E, mm
 THIGH_BACK_ABOVE_E_MM = 100.0
 
@@ -89,23 +93,40 @@ def _none(reason: str) -> ThighMeasures:
 
 
 def _posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
-    """The rearmost y (mm) of the leg at each height (k,), evenly spaced by STEP_MM; NaN
-    where there is nothing.  A mesh: its exact plane sections' segment ends
-    (:func:`app.geometry.sections.mesh_section_segments`); a cloud: the points within
-    CLOUD_PROFILE_HALF_MM of the height (a sparse cloud's rearmost point is otherwise
-    missing from some slabs)."""
-    rear = np.full(len(heights), np.inf)
+    """The back of the leg at each height (k,), evenly spaced by STEP_MM: a low percentile
+    (REAR_PERCENTILE) of the y of the section's points - a mesh's exact plane-section
+    segment ends (:func:`app.geometry.sections.mesh_section_segments`), a cloud's points
+    within CLOUD_PROFILE_HALF_MM of the height - rather than their minimum, which a
+    scanner's noise drags back by its largest excursion; then averaged over +-PROFILE_SMOOTH_MM.
+    NaN where there is nothing.  mm."""
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(points, faces, heights)
-        np.minimum.at(rear, np.repeat(plane, 2), segments[:, :, 1].ravel())
+        group, y = np.repeat(plane, 2), segments[:, :, 1].ravel()
     else:
         index = np.rint((points[:, 2] - heights[0]) / STEP_MM).astype(np.int64)
-        inside = (index >= 0) & (index < len(heights))
-        np.minimum.at(rear, index[inside], points[inside, 1])
         reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
-        padded = np.pad(rear, reach, constant_values=np.inf)
-        rear = np.lib.stride_tricks.sliding_window_view(padded, 2 * reach + 1).min(axis=1)
-    rear[~np.isfinite(rear)] = np.nan
+        # each point counts for the heights within reach of it
+        offsets = np.arange(-reach, reach + 1)
+        group = (index[:, None] + offsets[None, :]).ravel()
+        y = np.repeat(points[:, 1], len(offsets))
+        keep = (group >= 0) & (group < len(heights))
+        group, y = group[keep], y[keep]
+    rear = np.full(len(heights), np.nan)
+    if not len(group):
+        return rear
+    order = np.lexsort((y, group))
+    group, y = group[order], y[order]
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    counts = np.diff(np.r_[starts, len(group)])
+    pick = starts + np.floor(REAR_PERCENTILE / 100 * (counts - 1)).astype(np.int64)
+    rear[group[starts]] = y[pick]
+    finite = np.isfinite(rear)
+    reach = int(round(PROFILE_SMOOTH_MM / STEP_MM))
+    if finite.sum() > 2 * reach + 1:
+        filled = np.interp(heights, heights[finite], rear[finite])
+        kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
+        smooth = np.convolve(np.pad(filled, reach, mode="edge"), kernel, mode="valid")
+        rear = np.where(finite, smooth, np.nan)
     return rear
 
 

@@ -374,10 +374,12 @@ async function designForm(recordId) {
   const table = h('textarea', { id: 'fabric-table', placeholder: 'strain, tension N/cm per line\n0.1, 1.2\n0.3, 4.0\n0.6, 9.5' });
   const limit = h('input', { id: 'hot-limit', type: 'number', step: '1', min: 1, value: 60 });
   const toe = options('toe', [['closed', 'closed toe'], ['open', 'open toe']]);
+  const stockingType = options('stocking-type', [['AD', 'AD knee-high (to below the knee)'], ['AG', 'AG thigh-high (to the top of the thigh)']]);
   const out = h('div');
   const form = h('form', { class: 'card', onsubmit: async (e) => {
     e.preventDefault();
-    const body = { standard: standard.value, hot_spot_limit_mmHg: Number(limit.value), toe: toe.value, fabric: {} };
+    const body = { standard: standard.value, hot_spot_limit_mmHg: Number(limit.value), toe: toe.value,
+      stocking_type: stockingType.value, fabric: {} };
     if (kind.value === 'class') body.compression_class = cls.value;
     else { body.compression_class = null; body.targets_mmHg = Object.fromEntries(LANDMARKS.map((n) => [n, Number(document.getElementById(`target-${n}`).value)])); }
     if (fabricKind.value === 'linear') body.fabric.stiffness_n_per_cm = Number(stiffness.value);
@@ -388,7 +390,8 @@ async function designForm(recordId) {
     } catch (error) { out.replaceChildren(problemBox(error)); }
   } },
   h('div', { class: 'grid-half' },
-    h('fieldset', {}, h('legend', { text: 'Pressure' }), h('label', { for: 'target-kind', text: 'Design to' }), kind,
+    h('fieldset', {}, h('legend', { text: 'Pressure' }), h('label', { for: 'stocking-type', text: 'Stocking' }), stockingType,
+      h('label', { for: 'target-kind', text: 'Design to' }), kind,
       h('label', { for: 'standard', text: 'Standard' }), standard, h('label', { for: 'compression-class', text: 'Class' }), cls, targets),
     h('fieldset', {}, h('legend', { text: 'Fabric' }), h('label', { for: 'fabric-kind', text: 'Fabric model' }), fabricKind,
       h('label', { for: 'stiffness', text: 'Stiffness K, N/cm per unit strain' }), stiffness,
@@ -436,7 +439,7 @@ function orderCard(design, charts) {
   const path = (format) => `/designs/${design.id}/order?format=${format}&chart=${encodeURIComponent(chartSelect.value)}`;
   const name = `order-${design.id.slice(0, 8)}`;
   return h('div', { class: 'card', id: 'order' }, h('h2', { text: 'Order' }),
-    h('p', { class: 'muted', text: `${design.inputs.toe ?? 'closed'} toe, knee-high (AD)` }),
+    h('p', { class: 'muted', text: `${design.inputs.toe ?? 'closed'} toe, ${design.stocking_type === 'AG' ? 'thigh-high (AG)' : 'knee-high (AD)'}` }),
     h('label', { for: 'order-chart', text: 'Size chart for the ready-to-wear check' }), chartSelect,
     h('div', { class: 'actions' },
       h('button', { class: 'primary', type: 'button', id: 'download-order-pdf', text: 'Download the order (PDF)',

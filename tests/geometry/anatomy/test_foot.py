@@ -94,7 +94,8 @@ def test_a_cut_foot_and_a_scan_without_its_foot_say_why():
 
 def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
     """The Visible Human female's right foot (a mesh): within ANSUR II's adult range, and
-    its vertices alone (a cloud) give the same points within 1.5 mm."""
+    its vertices alone (a sparse cloud, ~10 mm apart on the foot) give the same points
+    within 3 mm, the accuracy the order form's girths are held to."""
     scan, result = fitted("vh_female_skin.glb", "right")
     leg = place_leg(scan, "right")
     local = leg.placement.frame.to_calf(leg.points)
@@ -104,5 +105,5 @@ def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
     assert 260 < mesh.heel_instep_girth.value_mm < 400
     for a, b in ((mesh.foot_length, cloud.foot_length), (mesh.ball_girth, cloud.ball_girth),
                  (mesh.heel_instep_girth, cloud.heel_instep_girth)):
-        assert a.value_mm == pytest.approx(b.value_mm, abs=1.5)
+        assert a.value_mm == pytest.approx(b.value_mm, abs=3.0)
     assert result.foot is not None and result.foot.ball_girth.value_mm == pytest.approx(mesh.ball_girth.value_mm)
