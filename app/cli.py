@@ -73,7 +73,7 @@ def fit_summary(record_dict: dict) -> dict:
         **({"grid": fit["grid"]} if "grid" in fit else {}),
         # the order form's points off the calf (cB-cD are the landmarks' tape girths)
         "chart": {name: point["value_mm"] if point.get("value_mm") is not None else f"not measured: {point.get('reason')}"
-                  for name, point in (record_dict.get("chart") or {}).items()},
+                  for name, point in (record_dict.get("chart") or {}).items() if name != "thigh_profile"},
         "seconds": fit["seconds"],
     }
 
@@ -296,7 +296,14 @@ def _cmd_size(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from app.geometry.garment.design import DEFAULT_CLASS, DEFAULT_HOT_SPOT_MMHG, DEFAULT_STANDARD, DEFAULT_STIFFNESS_N_PER_CM
+    from app.geometry.garment.design import (
+        DEFAULT_CLASS,
+        DEFAULT_HOT_SPOT_MMHG,
+        DEFAULT_STANDARD,
+        DEFAULT_STIFFNESS_N_PER_CM,
+        DEFAULT_STOCKING_TYPE,
+        DEFAULT_TOE,
+    )
     from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
 
     parser = argparse.ArgumentParser(prog="calf-nurbs", description="Fit an exact NURBS model to a 3D scan of a leg, "
@@ -358,6 +365,9 @@ def build_parser() -> argparse.ArgumentParser:
     design.add_argument("--table", help="CSV of the fabric's measured strain,tension_N_per_cm (instead of --stiffness)")
     design.add_argument("--hot-spot-limit", type=float, default=DEFAULT_HOT_SPOT_MMHG,
                         help=f"local pressure hot-spot limit, mmHg ({DEFAULT_HOT_SPOT_MMHG:g})")
+    design.add_argument("--type", default=DEFAULT_STOCKING_TYPE, choices=["AD", "AG"],
+                        help="AD knee-high (default) or AG thigh-high (needs a record whose scan reaches the gluteal fold)")
+    design.add_argument("--toe", default=DEFAULT_TOE, choices=["closed", "open"], help="the stocking's toe (closed)")
     design.add_argument("--json", action="store_true", help="print the whole design as JSON")
     design.set_defaults(func=_cmd_design)
 

@@ -27,7 +27,7 @@ def test_fit_then_export(tmp_path, capsys):
     record = json.loads(record_path.read_text())
     assert len(record["surface"]["control_points"]) == 8 + 3
     # the foot is in this scan: its order-form points, as the record holds them
-    assert summary["chart"] == {name: p["value_mm"] for name, p in record["chart"].items()}
+    assert summary["chart"] == {name: p["value_mm"] for name, p in record["chart"].items() if name != "thigh_profile"}
     assert set(summary["chart"]) == {"foot_length", "cA", "cY", "cE", "cF", "cG"} and 200 < summary["chart"]["foot_length"] < 300
     for fmt in ("stl", "glb"):
         out = tmp_path / f"leg.{fmt}"
@@ -63,6 +63,13 @@ def test_design_prints_a_table_and_json(record_path, capsys):
             assert lm[key] > 0
         assert set(lm["sides_mmHg"]) == {"medial", "lateral", "anterior", "posterior"}
     assert 23 <= design["landmarks"]["B"]["mean_pressure_mmHg"] <= 32
+    # a thigh-high on the same leg (it reaches the hip): the table adds E, F, G
+    assert main(["design", str(record_path), "--type", "AG", "--toe", "open"]) == 0
+    table = capsys.readouterr().out
+    assert "thigh-high (AG)" in table and all(f"\n{n}  " in table for n in ("E", "F", "G"))
+    assert main(["design", str(record_path), "--type", "AG", "--json"]) == 0
+    thigh_high = json.loads(capsys.readouterr().out)
+    assert thigh_high["stocking_type"] == "AG" and thigh_high["inputs"]["stocking_type"] == "AG"
 
 
 def test_design_with_a_fabric_table_and_a_refusal(record_path, tmp_path, capsys):

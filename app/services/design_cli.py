@@ -26,7 +26,7 @@ def request_from_args(args: argparse.Namespace) -> dict:
         fabric["stiffness_n_per_cm"] = args.stiffness
         fabric["max_strain"] = args.max_strain
     return {"standard": args.standard, "compression_class": args.compression_class, "fabric": fabric,
-            "hot_spot_limit_mmHg": args.hot_spot_limit}
+            "hot_spot_limit_mmHg": args.hot_spot_limit, "toe": args.toe, "stocking_type": args.type}
 
 
 def summary_table(result: dict) -> str:
@@ -54,6 +54,12 @@ def summary_table(result: dict) -> str:
     lines.append(f"hot spots above {result['hot_spot_limit_mmHg']:g} mmHg: {len(spots)}")
     for spot in spots[:5]:
         lines.append(f"  {spot['peak_mmHg']:.0f} mmHg at {spot['height_mm']:.0f} mm, {spot['side']} ({spot['angle_deg']:.0f} deg)")
+    if result.get("thigh"):
+        lines.append("thigh-high (AG), on the thigh's tape girths (mean pressure):")
+        for name, level in result["thigh"]["levels"].items():
+            lines.append(f"{name:3} {level['height_mm']:6.0f} {level['mean_pressure_mmHg']:6.1f} "
+                         f"(target {level['target_mmHg']:.1f})  L {level['stretched_circumference_mm']:6.0f}  "
+                         f"L0 {level['relaxed_circumference_mm']:6.0f}  strain {level['strain']:6.1%}")
     if result["side_assumed"]:
         lines.append("side unknown: medial/lateral assume a right leg")
     return "\n".join(lines)

@@ -12,8 +12,9 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
 
 - **E, the middle of the knee.**  Going up from the knee waist D the girth rises over the
   knee's bulge (the femoral condyles and the patella), stays nearly level across it, and
-  rises again along the thigh.  E is the middle of that level stretch: the height of the
-  smallest girth slope (the slope over +-SLOPE_HALF_MM) between D + 20 mm and D + 150 mm.
+  rises again along the thigh.  E is the middle of that level stretch: of the run of
+  heights round the smallest girth slope (the slope over +-SLOPE_HALF_MM, searched
+  between D + 20 mm and D + 150 mm) whose slope stays within KNEE_LEVEL_SLOPE of it.
   ANSUR II puts the mid-patella 17 +- 9 mm above the tibial plateau (6,068 subjects); on
   the Visible Human male, whose D is 456 mm above the floor, E lands 50 mm above D, where
   the ANSUR proportions of a 1.8 m man put the mid-patella.
@@ -40,6 +41,9 @@ STEP_MM = 2.0
 PROFILE_STEP_MM = 5.0
 #: the knee's level stretch is searched this far above D, mm
 KNEE_WINDOW_MM = (20.0, 150.0)
+#: the knee's level stretch: slopes within this of the least one, mm of girth per mm of height
+#: (the knee's crown rises 0.1-0.3, the thigh ~1)
+KNEE_LEVEL_SLOPE = 0.15
 SLOPE_HALF_MM = 10.0
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
 #: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
@@ -173,7 +177,18 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
     if not window.any():
         return _none("the knee has no closed sections in the scan (a hole or a crop)")
-    e = int(np.flatnonzero(window)[np.argmin(slope[window])])
+    # the level stretch: the run of heights round the least slope whose slope stays within
+    # KNEE_LEVEL_SLOPE of it; E is its middle (the least slope alone wanders along a flat
+    # stretch with a scanner's noise), as C is the middle of the calf's crown
+    inside = np.flatnonzero(window)
+    least = int(inside[np.argmin(slope[inside])])
+    level = window & (slope <= slope[least] + KNEE_LEVEL_SLOPE)
+    lo = hi = least
+    while lo - 1 >= 0 and level[lo - 1]:
+        lo -= 1
+    while hi + 1 < len(level) and level[hi + 1]:
+        hi += 1
+    e = (lo + hi) // 2
     knee = LevelPoint("E", float(girth[e]), float(heights[e]))
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = _posterior_profile(points, faces, heights)
