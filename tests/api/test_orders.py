@@ -144,6 +144,13 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
         laplace = 2 * 3.141592653589793 * row["tension_N_per_cm"] * 1e5 / row["stretched_circumference_mm"] / 133.322
         assert row["predicted_mean_mmHg"] == pytest.approx(laplace, rel=1e-6)
         assert row["predicted_mean_mmHg"] == pytest.approx(row["target_mmHg"], rel=0.03)
+    # its local pressure map and charts cover the surface, B to D (the thigh has none)
+    csv_map = client.get(f"/api/v1/designs/{ag['id']}/pressure-map", params={"format": "csv"})
+    assert csv_map.status_code == 200
+    map_heights = [float(line.split(",")[0]) for line in csv_map.text.splitlines()[1:]]
+    assert max(map_heights) <= d + 1e-6
+    for chart in ("profile", "pressure", "map"):
+        assert client.get(f"/api/v1/designs/{ag['id']}/charts/{chart}.png").status_code == 200
     names = [c["name"] for c in ag["checks"]]
     assert "graded D > E > F > G" in names and any(n.startswith("G 20%-40% of B") for n in names)
     order = client.get(f"/api/v1/designs/{ag['id']}/order").json()

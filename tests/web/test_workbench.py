@@ -374,6 +374,10 @@ def test_explicit_targets_and_the_classes_of_each_standard(served, page):
     page.get_by_role("button", name="Design the stocking").click()
     page.wait_for_url("**/#/designs/*", timeout=60_000)
     expect(page.locator("#order")).to_contain_text("thigh-high (AG)", timeout=30_000)
+    # the local pressure map (B to D: the thigh has none) draws, and nothing replaces the screen
+    page.locator("#pressure-viewer canvas").wait_for(timeout=30_000)
+    expect(page.locator(".legend #pressure-ramp")).to_have_count(1, timeout=30_000)
+    expect(page.get_by_role("heading", level=1)).to_have_text("Stocking design")
     assert page.locator("#knitting-spec tbody tr").count() > 100  # B to G every 5 mm
     assert page.console_errors == []
 

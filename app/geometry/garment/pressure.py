@@ -225,11 +225,14 @@ def find_hot_spots(rings: Rings, local_pa: np.ndarray, limit_pa: float, directio
 def pressure_map(surface: NurbsSurface, design: dict, fabric: Fabric, n_around: int = 360) -> tuple[Rings, np.ndarray]:
     """Local pressure (Pa) on a (heights, n_around) grid, from the design's knitting spec.
 
-    Heights every 2.5 mm from B to D; tension interpolated from the spec in height.
+    Heights every 2.5 mm from B to D, where the surface is (a thigh-high's spec runs on to
+    G on the thigh's tape girths, off the surface: no local map there); tension
+    interpolated from the spec in height.
     """
     spec = design["knitting_spec"]
     h_spec = np.array([row["height_mm"] for row in spec])
     t_spec = np.array([row["tension_N_per_cm"] for row in spec])
-    heights = np.arange(h_spec[0], h_spec[-1] + 1e-9, 2.5)
+    top = min(float(h_spec[-1]), float(design["landmarks"]["D"]["height_mm"]))
+    heights = np.arange(h_spec[0], top + 1e-9, 2.5)
     rings = surface_rings(surface, heights, n_around)
     return rings, local_pressure_pa(rings, np.interp(heights, h_spec, t_spec))
