@@ -212,8 +212,8 @@ def design_view(design: Design) -> dict:
 
 def knitting_csv(design: Design) -> str:
     """The knitting specification as CSV: first ``# key: value`` lines naming what it
-    belongs to (the record, the design, the side, the standard and class or the explicit
-    targets, the fabric, the verdict) - a manufacturer's file must not lose its leg -
+    belongs to (the record, the design, the side, the stocking type and toe, the standard
+    and class or the explicit targets, the fabric, the verdict) - a manufacturer's file must not lose its leg -
     then one row per height (pandas: ``read_csv(..., comment="#")``)."""
     result = design.result
     out = io.StringIO()
@@ -226,6 +226,9 @@ def knitting_csv(design: Design) -> str:
         "record": design.record_id,
         "design": design.id,
         "side": result.get("side") or "unknown",
+        "stocking": f"{result.get('stocking_type', 'AD')} "
+                    f"{'thigh-high' if result.get('stocking_type') == 'AG' else 'knee-high'}, "
+                    f"{design.inputs.get('toe', 'closed')} toe",
         "standard and class": f"{klass['standard']} class {klass['class']}" if klass else "explicit targets",
         "fabric": fabric_text,
         "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),

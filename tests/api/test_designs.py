@@ -56,6 +56,7 @@ def test_knitting_spec_csv(client, design):
     header = {line[2:].split(": ", 1)[0]: line.split(": ", 1)[-1] for line in lines if line.startswith("# ")}
     assert header["record"] == design["record_id"] and header["design"] == design["id"]
     assert header["side"] in ("left", "right") and header["standard and class"].startswith("RAL class")
+    assert header["stocking"] == "AD knee-high, closed toe"
     assert header["fabric"].startswith("linear, K = ") and header["verdict"] in ("pass", "review", "fail")
     rows = list(csv.DictReader(io.StringIO("\n".join(line for line in lines if not line.startswith("#")))))
     assert len(rows) == len(design["knitting_spec"])

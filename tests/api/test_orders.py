@@ -144,6 +144,8 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
         laplace = 2 * 3.141592653589793 * row["tension_N_per_cm"] * 1e5 / row["stretched_circumference_mm"] / 133.322
         assert row["predicted_mean_mmHg"] == pytest.approx(laplace, rel=1e-6)
         assert row["predicted_mean_mmHg"] == pytest.approx(row["target_mmHg"], rel=0.03)
+    knitting = client.get(f"/api/v1/designs/{ag['id']}/knitting-spec").text
+    assert "# stocking: AG thigh-high, closed toe" in knitting
     # its local pressure map and charts cover the surface, B to D (the thigh has none)
     csv_map = client.get(f"/api/v1/designs/{ag['id']}/pressure-map", params={"format": "csv"})
     assert csv_map.status_code == 200
