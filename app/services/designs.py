@@ -210,6 +210,13 @@ def design_view(design: Design) -> dict:
     }
 
 
+def fabric_text(fabric: dict) -> str:
+    """A fabric in words, for the knitting CSV's header and the order."""
+    if fabric.get("stiffness_n_per_cm") is not None:
+        return f"linear, K = {fabric['stiffness_n_per_cm']:g} N/cm per unit strain, max strain {fabric['max_strain']:g}"
+    return f"measured tension-strain table of {len(fabric.get('table') or [])} rows"
+
+
 def knitting_csv(design: Design) -> str:
     """The knitting specification as CSV: first ``# key: value`` lines naming what it
     belongs to (the record, the design, the side, the stocking type and toe, the standard
@@ -218,9 +225,6 @@ def knitting_csv(design: Design) -> str:
     result = design.result
     out = io.StringIO()
     klass = result.get("class")
-    fabric = result.get("fabric") or {}
-    fabric_text = (f"linear, K = {fabric['stiffness_n_per_cm']:g} N/cm per unit strain, max strain {fabric['max_strain']:g}"
-                   if fabric.get("stiffness_n_per_cm") is not None else f"measured table of {len(fabric.get('table') or [])} rows")
     header = {
         "calf-nurbs knitting specification": None,
         "record": design.record_id,
@@ -230,7 +234,7 @@ def knitting_csv(design: Design) -> str:
                     f"{'thigh-high' if result.get('stocking_type') == 'AG' else 'knee-high'}, "
                     f"{design.inputs.get('toe', 'closed')} toe",
         "standard and class": f"{klass['standard']} class {klass['class']}" if klass else "explicit targets",
-        "fabric": fabric_text,
+        "fabric": fabric_text(result.get("fabric") or {}),
         "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),
         "units": "mm, mmHg, N/cm",
     }

@@ -8,6 +8,7 @@ the two forms cannot disagree.
 from __future__ import annotations
 
 import io
+import math
 from datetime import datetime
 from xml.sax.saxutils import escape
 
@@ -43,7 +44,7 @@ def leg_diagram(order: dict) -> Drawing:
     labelled with its value."""
     outline = order["leg_outline"]
     heights = [row["height_mm"] for row in outline]
-    radii = [row["tape_girth_mm"] / (2 * 3.141592653589793) for row in outline]
+    radii = [row["tape_girth_mm"] / (2 * math.pi) for row in outline]
     floor = order["sole_height_mm"]
     low = floor if floor is not None else heights[0] - 20.0
     high = heights[-1] + 20.0
@@ -66,13 +67,14 @@ def leg_diagram(order: dict) -> Drawing:
     if floor is not None:
         drawing.add(Line(4, y(floor), DIAGRAM_W - 4, y(floor), strokeColor=INK, strokeWidth=1))
         drawing.add(String(4, y(floor) + 2, "floor", fontSize=6, fillColor=INK))
+    by_point = {m["point"]: m for m in order["measurements"]}
     for m in order["measurements"]:
         if not m["needed"] or m["kind"] != "circumference" or m["value_mm"] is None or m["height_mm"] is None:
             continue
-        r = m["value_mm"] / (2 * 3.141592653589793)
+        r = m["value_mm"] / (2 * math.pi)
         at = y(m["height_mm"])
         drawing.add(Line(cx - r * scale - 3, at, cx + r * scale + 3, at, strokeColor=MARK, strokeWidth=1))
-        length = next((n for n in order["measurements"] if n["point"] == "l" + m["point"][1:]), None)
+        length = by_point.get("l" + m["point"][1:])
         label = f"{m['point']} {m['value_mm']:.0f}"
         if length is not None and length["value_mm"] is not None:
             label += f"  l{m['point'][1:]} {length['value_mm']:.0f}"

@@ -20,19 +20,13 @@ from app.db.models import Design, Record, utcnow
 from app.geometry.garment.measuring_points import STOCKING_TYPES
 from app.geometry.measures.surface_girths import girths
 from app.records.codec import CalfRecord
-from app.services.designs import DesignService
+from app.services.designs import DesignService, fabric_text
 from app.services.records import record_chart
 from app.services.size_charts import EXAMPLE_CHART_ID, SizeChartService
 
 ORDER_FORMAT = "calf-nurbs order 1"
 #: samples of the leg diagram's outline from B to D (and to G of a thigh-high)
 DIAGRAM_SAMPLES = 41
-
-
-def _fabric_text(fabric: dict) -> str:
-    if fabric.get("stiffness_n_per_cm") is not None:
-        return f"linear, K = {fabric['stiffness_n_per_cm']:g} N/cm per unit strain, max strain {fabric['max_strain']:g}"
-    return f"measured tension-strain table of {len(fabric.get('table') or [])} rows"
 
 
 def _warnings(record: CalfRecord, result: dict, inputs: dict, measured, decision: dict) -> list[str]:
@@ -103,7 +97,7 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
             "class_range_mmHg_at_B": list(klass["range_mmHg"]) if klass else None,
             "targets_mmHg": result.get("targets_mmHg"),
             "fabric": result.get("fabric"),
-            "fabric_text": _fabric_text(result.get("fabric") or {}),
+            "fabric_text": fabric_text(result.get("fabric") or {}),
         },
         "measurements": measured,
         "sole_height_mm": sole,
@@ -128,5 +122,5 @@ class OrderService:
         example when None: the order always states a decision, and says whose chart)."""
         design = self.designs.get(design_id)
         row = design.record
-        decision = self.charts.decide(row.id, chart_id or EXAMPLE_CHART_ID)
+        decision = self.charts.decide_for(row, chart_id or EXAMPLE_CHART_ID)
         return order_document(design, row, CalfRecord.from_dict(row.body), decision, utcnow())

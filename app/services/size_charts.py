@@ -11,7 +11,7 @@ from importlib import resources
 
 from sqlalchemy.orm import Session
 
-from app.db.models import SizeChartRow
+from app.db.models import Record, SizeChartRow
 from app.db.repositories import SizeChartRepository
 from app.errors import NotFound, from_fit_failure
 from app.geometry.errors import FitFailure
@@ -65,8 +65,11 @@ class SizeChartService:
             chart_view(row.id, size_chart_from_dict(row.body), False) for row in self.charts.all()]
 
     def decide(self, record_id: str, chart_id: str) -> dict:
+        return self.decide_for(self.records.get(record_id), chart_id)
+
+    def decide_for(self, record: Record, chart_id: str) -> dict:
+        """The size decision of a record row already read (the order has it)."""
         chart, example = self.get(chart_id)
-        record = self.records.get(record_id)
         body = record.body
         measures = record_chart_measures(body.get("landmarks", {}), (body.get("scan") or {}).get("sole_mm"), body.get("chart"))
         decision = size_decision(chart, measures)

@@ -112,36 +112,43 @@ def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float) -> tuple[
     return points[used], index[faces[keep]]
 
 
-def _plane_girths(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
-                  offsets: np.ndarray) -> np.ndarray:
-    """Tape girths in the planes {p : (p - origin) . basis[2] = offset}, basis (3, 3)
-    orthonormal rows (the third the planes' normal); (k,) mm, NaN where no closed section.
+def _cloud_slab_mm(points: np.ndarray, faces: np.ndarray | None) -> float:
+    """Half thickness (mm) of a cloud's section slabs: LOOP_SLAB_MM, or the cloud's median
+    point spacing where larger (a sparse cloud's slab must hold a whole ring); 0 for a mesh
+    (its sections are exact)."""
+    if faces is not None and len(faces):
+        return 0.0
+    return max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
 
-    The section's points - a mesh's exact plane-section segment ends
-    (:func:`app.geometry.sections.mesh_section_segments`), a cloud's points within
-    LOOP_SLAB_MM (or its median point spacing, if larger) of the plane - are read as their
-    median radius in bins of angle round their centroid (about 3 points a bin, at most
-    360; more than LOOP_MAX_EMPTY of them empty is no closed section), smoothed over
-    +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
-    excursions), and the tape is the convex hull of that loop.  (The calf's polar fit,
-    :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
-    harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
+
+def _sections(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
+              offsets: np.ndarray, slab_mm: float) -> list[np.ndarray]:
+    """The sections (n_k, 2) of the planes {p : (p - origin) . basis[2] = offset}, in the
+    in-plane coordinates basis[0], basis[1] (basis (3, 3) orthonormal rows): a mesh's exact
+    plane-section segment ends (:func:`app.geometry.sections.mesh_section_segments`), a
+    cloud's points within ``slab_mm`` (:func:`_cloud_slab_mm`) of the plane."""
     q = (points - origin) @ basis.T
-    girths = np.full(len(offsets), np.nan)
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(q, faces, offsets)
-        sections = [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
-    else:
-        # a sparse cloud's slab must be as thick as its point spacing to hold a whole ring
-        half = max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
-        sections = [q[np.abs(q[:, 2] - offset) < half, :2] for offset in offsets]
-    for k, section in enumerate(sections):  # one loop per plane: a handful of planes
-        girths[k] = _loop_girth(section)
-    return girths
+        return [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
+    return [q[np.abs(q[:, 2] - offset) < slab_mm, :2] for offset in offsets]
+
+
+def _plane_girths(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
+                  offsets: np.ndarray, slab_mm: float) -> np.ndarray:
+    """Tape girths (k,) mm in the planes of :func:`_sections`, NaN where no closed section
+    (:func:`_loop_girth`)."""
+    return np.array([_loop_girth(section) for section in _sections(points, faces, origin, basis, offsets, slab_mm)])
 
 
 def _loop_girth(section: np.ndarray) -> float:
-    """The tape girth (mm) of a section's points (n, 2) (see :func:`_plane_girths`)."""
+    """The tape girth (mm) of a section's points (n, 2): read as their median radius in
+    bins of angle round their centroid (about 3 points a bin, at most 360; more than
+    LOOP_MAX_EMPTY of them empty is no closed section: NaN), smoothed over
+    +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
+    excursions); the tape is the convex hull of that loop.  (The calf's polar fit,
+    :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
+    harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
     if len(section) < 30:
         return float("nan")
     rel = section - section.mean(axis=0)
@@ -189,8 +196,10 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     origin = sole_point - (sole_point @ axis) * axis
     lo, hi = heel_t + BALL_WINDOW[0] * length, heel_t + BALL_WINDOW[1] * length
     offsets = np.arange(lo, hi + 1e-9, BALL_STEP_MM)
-    window = _plane_girths(below_b, below_faces, origin, basis, offsets)
-    ends = _plane_girths(below_b, below_faces, origin, basis, np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM]))
+    slab = _cloud_slab_mm(below_b, below_faces)  # once for the planes across the foot
+    window = _plane_girths(below_b, below_faces, origin, basis, offsets, slab)
+    ends = _plane_girths(below_b, below_faces, origin, basis, np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM]),
+                         slab)
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis))
     if not np.isfinite(window).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
@@ -205,30 +214,12 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
     instep, instep_faces = _below(points, faces, INSTEP_TOP_MM)
-    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length))
-
-
-def _front_of_loop(points: np.ndarray, faces: np.ndarray | None, heel: np.ndarray, basis: np.ndarray) -> np.ndarray | None:
-    """The loop's far end in the plane through ``heel`` with rows ``basis`` (across, rising
-    in-plane direction, normal): its section point furthest along basis[1] (calf frame mm,
-    (3,)), or None without a section.  A mesh's exact section ends; a cloud's points
-    within its slab (twice the point spacing)."""
-    q = (points - heel) @ basis.T
-    if faces is not None and len(faces):
-        _, segments = mesh_section_segments(q, faces, np.array([0.0]))
-        if not len(segments):
-            return None
-        ends = segments.reshape(-1, 2)
-        far = ends[int(np.argmax(ends[:, 1]))]
-        return heel + far[0] * basis[0] + far[1] * basis[1]
-    near = np.flatnonzero(np.abs(q[:, 2]) < 2.0)
-    if not len(near):
-        return None
-    return points[near[int(np.argmax(q[near, 1]))]]
+    return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
+                                                                 _cloud_slab_mm(instep, instep_faces)))
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                 heel_t: float, length: float) -> FootPoint:
+                 heel_t: float, length: float, slab_mm: float) -> FootPoint:
     """cY: the shortest loop round the heel's posterior-inferior point and over the front
     of the ankle, among the planes through that point containing the foot's transverse
     axis tilted INSTEP_TILT_DEG from the floor whose loop's far end lies over the ankle
@@ -243,12 +234,16 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     for tilt in tilts:  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
-        far = _front_of_loop(points, faces, heel, basis)
-        if far is None or not heel_t + INSTEP_WINDOW[0] * length <= far @ axis <= heel_t + INSTEP_WINDOW[1] * length:
+        section = _sections(points, faces, heel, basis, np.array([0.0]), slab_mm)[0]  # once per plane
+        if not len(section):
+            continue
+        end = section[int(np.argmax(section[:, 1]))]  # the loop's far end, along the rising direction
+        far = heel + end[0] * basis[0] + end[1] * basis[1]
+        if not heel_t + INSTEP_WINDOW[0] * length <= far @ axis <= heel_t + INSTEP_WINDOW[1] * length:
             continue
         if far[2] > INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:  # the loop reaches the part's cut: not closed
             continue
-        girth = float(_plane_girths(points, faces, heel, basis, np.array([0.0]))[0])
+        girth = _loop_girth(section)
         if np.isfinite(girth) and (best is None or girth < best[0]):
             best = (girth, (heel + far) / 2)
     if best is None:

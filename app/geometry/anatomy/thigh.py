@@ -182,12 +182,9 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # stretch with a scanner's noise), as C is the middle of the calf's crown
     inside = np.flatnonzero(window)
     least = int(inside[np.argmin(slope[inside])])
-    level = window & (slope <= slope[least] + KNEE_LEVEL_SLOPE)
-    lo = hi = least
-    while lo - 1 >= 0 and level[lo - 1]:
-        lo -= 1
-    while hi + 1 < len(level) and level[hi + 1]:
-        hi += 1
+    off_level = np.flatnonzero(~(window & (slope <= slope[least] + KNEE_LEVEL_SLOPE)))
+    lo = int(off_level[off_level < least].max(initial=-1)) + 1  # the run's ends round the least slope
+    hi = int(off_level[off_level > least].min(initial=len(slope))) - 1
     e = (lo + hi) // 2
     knee = LevelPoint("E", float(girth[e]), float(heights[e]))
     # G: the gluteal fold, the corner of the posterior profile below the buttock

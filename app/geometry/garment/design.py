@@ -41,9 +41,9 @@ import numpy as np
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.fabric import Fabric
+from app.geometry.garment.knitting import KnittingSpec, knit_rows
 from app.geometry.garment.pressure import (
     PA_PER_MMHG,
-    PA_PER_N_PER_CM_PER_MM,
     HotSpot,
     find_hot_spots,
     local_pressure_pa,
@@ -55,6 +55,7 @@ from app.geometry.garment.pressure import (
 from app.geometry.garment.standards import (
     COMPRESSION_CLASSES,
     GRADIENT,
+    DesignCheck,
     class_target_mmhg,
     gradient_targets,
     normalize_class,
@@ -86,18 +87,6 @@ STOCKING_TYPES = ("AD", "AG")
 
 
 @dataclass(frozen=True)
-class DesignCheck:
-    """One check of a design: its name (with the standard it comes from), the value
-    checked (mmHg or a ratio; a list for the gradient), whether it passed and whether
-    the standard makes it normative."""
-
-    name: str
-    value: float | list[float]
-    passed: bool
-    normative: bool
-
-
-@dataclass(frozen=True)
 class LandmarkPressure:
     """The design at one landmark: heights mm above the floor frame's z, the target mmHg,
     predicted pressures Pa (``sides_pa`` per direction: medial, lateral, anterior,
@@ -119,21 +108,6 @@ class LandmarkPressure:
     @property
     def mean_pressure_mmhg(self) -> float:
         return self.mean_pressure_pa / PA_PER_MMHG
-
-
-@dataclass(frozen=True)
-class KnittingSpec:
-    """The knitting specification, one row per height (every ``step_mm`` from B to D and
-    at the landmarks): all arrays (k,), heights mm, target mmHg, predicted mean Pa,
-    stretched and relaxed circumferences mm, tension N/cm, strain (-)."""
-
-    heights_mm: np.ndarray
-    target_mmhg: np.ndarray
-    stretched_circumference_mm: np.ndarray
-    tension_n_per_cm: np.ndarray
-    strain: np.ndarray
-    relaxed_circumference_mm: np.ndarray
-    predicted_mean_pa: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -245,24 +219,8 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     heights = np.clip(heights, z[0], z[-1])
     rings = surface_rings(surface, heights, inputs.n_around)
     target_mmhg = np.interp(heights, z, [targets[n] for n in LANDMARK_NAMES])
-    target_pa = target_mmhg * PA_PER_MMHG
-    # mean pressure 2 pi T / L  ->  T = P L / (2 pi)
-    tension = target_pa * rings.hull_perimeter / (2 * np.pi * PA_PER_N_PER_CM_PER_MM)
-    strain = inputs.fabric.strain_for(tension)
-    if not np.isfinite(strain).all():
-        worst = int(np.nanargmax(np.where(np.isfinite(strain), -np.inf, tension)))
-        raise FitFailure(
-            FailureReason.UNREACHABLE_PRESSURE,
-            f"at {heights[worst]:.0f} mm the target {target_mmhg[worst]:.1f} mmHg needs a tension of "
-            f"{tension[worst]:.2f} N/cm, more than the fabric gives within its strain limit "
-            f"({inputs.fabric.max_strain:.0%}): the stocking would have to stretch beyond what the fabric "
-            "takes without tearing; choose a stiffer fabric or a lower class",
-        )
-    relaxed = rings.hull_perimeter / (1.0 + strain)
-    relaxed_knit = np.round(relaxed / inputs.resolution_mm) * inputs.resolution_mm
-    # prediction from the knitted (rounded) specification
-    strain_knit = rings.hull_perimeter / relaxed_knit - 1.0
-    tension_knit = inputs.fabric.tension(np.maximum(strain_knit, 0.0))
+    knitted = knit_rows(heights, target_mmhg, rings.hull_perimeter, inputs.fabric, inputs.resolution_mm)
+    relaxed_knit, strain_knit, tension_knit = knitted.relaxed_mm, knitted.strain, knitted.tension_n_per_cm
     local = local_pressure_pa(rings, tension_knit)
     mean = mean_pressure_pa(rings, tension_knit)
     directions, side_assumed = side_directions(side)
@@ -293,10 +251,8 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         profile, levels = thigh_chart
         thigh = thigh_part(np.asarray(profile["heights_mm"]), np.asarray(profile["tape_girth_mm"]), levels,
                            targets["B"], p["D"], inputs.fabric, inputs.step_mm, inputs.resolution_mm)
-        checks += [DesignCheck(*check) for check in thigh.checks]
-        spec = KnittingSpec(*(np.concatenate([getattr(spec, f), getattr(thigh, f)]) for f in (
-            "heights_mm", "target_mmhg", "stretched_circumference_mm", "tension_n_per_cm", "strain",
-            "relaxed_circumference_mm", "predicted_mean_pa")))
+        checks += thigh.checks
+        spec = spec.joined(thigh.rows)
     return StockingDesign(
         compression_class=class_info,
         targets_mmhg=targets,

@@ -132,7 +132,13 @@ def local_pressure_pa(rings: Rings, tension_n_per_cm: np.ndarray) -> np.ndarray:
 
 def mean_pressure_pa(rings: Rings, tension_n_per_cm: np.ndarray) -> np.ndarray:
     """(k,) mean pressure around the hull, 2 pi T / L, Pa."""
-    return PA_PER_N_PER_CM_PER_MM * 2 * np.pi * np.asarray(tension_n_per_cm) / rings.hull_perimeter
+    return laplace_mean_pa(tension_n_per_cm, rings.hull_perimeter)
+
+
+def laplace_mean_pa(tension_n_per_cm: np.ndarray, hull_length_mm: np.ndarray) -> np.ndarray:
+    """(k,) mean pressure (Pa) of fabric at ``tension_n_per_cm`` round a convex hull of
+    length ``hull_length_mm``: 2 pi T / L (Laplace averaged round the hull)."""
+    return PA_PER_N_PER_CM_PER_MM * 2 * np.pi * np.asarray(tension_n_per_cm) / np.asarray(hull_length_mm)
 
 
 def sector_means(rings: Rings, pressure: np.ndarray, directions: dict[str, float], half_width_deg: float = 10.0) -> dict:

@@ -6,12 +6,26 @@ Pressures in mmHg; the landmarks B, B1, C, D of :mod:`app.geometry.anatomy.landm
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TypedDict
 
 import numpy as np
 
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FailureReason, FitFailure
+
+
+@dataclass(frozen=True)
+class DesignCheck:
+    """One check of a design: its name (with the standard it comes from), the value
+    checked (mmHg or a ratio; a list for the gradient), whether it passed and whether
+    the standard makes it normative."""
+
+    name: str
+    value: float | list[float]
+    passed: bool
+    normative: bool
+
 
 
 class CompressionStandard(TypedDict):

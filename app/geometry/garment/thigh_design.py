@@ -12,7 +12,8 @@ Targets: the pressure at D (the calf part's predicted mean), then the thigh rows
 :data:`app.geometry.garment.standards.THIGH_GRADIENT` at F and G as fractions of B's
 target, linear in height in between (E lies between D and F).  Tension T = P L / (2 pi),
 strain from the fabric, relaxed L0 = L / (1 + eps) rounded to the resolution, the
-prediction recomputed from the rounded L0.  Units: mm, Pa internally, mmHg reported, N/cm.
+prediction recomputed from the rounded L0 - the calf's step
+(:func:`app.geometry.garment.knitting.knit_rows`).  Units: mm, Pa internally, mmHg reported, N/cm.
 """
 
 from __future__ import annotations
@@ -21,10 +22,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.fabric import Fabric
-from app.geometry.garment.pressure import PA_PER_MMHG, PA_PER_N_PER_CM_PER_MM
-from app.geometry.garment.standards import THIGH_GRADIENT
+from app.geometry.garment.knitting import KnittingSpec, knit_rows
+from app.geometry.garment.pressure import PA_PER_MMHG, laplace_mean_pa
+from app.geometry.garment.standards import THIGH_GRADIENT, DesignCheck
 
 
 @dataclass(frozen=True)
@@ -42,19 +43,12 @@ class ThighLevel:
 
 @dataclass(frozen=True)
 class ThighPart:
-    """Rows (k,) from just above D to G: heights mm, target mmHg, stretched and relaxed
-    circumferences mm, tension N/cm, strain, predicted mean Pa; the levels E, F, G and
-    the thigh's checks as (name, value, passed, normative)."""
+    """The rows from just above D to G (a knitting specification), the levels E, F, G and
+    the thigh's checks."""
 
-    heights_mm: np.ndarray
-    target_mmhg: np.ndarray
-    stretched_circumference_mm: np.ndarray
-    tension_n_per_cm: np.ndarray
-    strain: np.ndarray
-    relaxed_circumference_mm: np.ndarray
-    predicted_mean_pa: np.ndarray
+    rows: KnittingSpec
     levels: dict[str, ThighLevel]
-    checks: tuple[tuple[str, float | list[float], bool, bool], ...]
+    checks: tuple[DesignCheck, ...]
 
 
 def thigh_part(profile_heights_mm: np.ndarray, profile_girths_mm: np.ndarray, level_heights_mm: dict[str, float],
@@ -62,8 +56,9 @@ def thigh_part(profile_heights_mm: np.ndarray, profile_girths_mm: np.ndarray, le
                resolution_mm: float) -> ThighPart:
     """The thigh part (module docstring).  profile (k,) heights and tape girths mm from D
     to G; ``level_heights_mm`` E, F, G; B's target and the calf part's predicted mean
-    pressure at D, mmHg (the thigh grades on from what the stocking gives at D).  Raises FitFailure
-    UNREACHABLE_PRESSURE when the fabric cannot give a target within its strain limit."""
+    pressure at D, mmHg (the thigh grades on from what the stocking gives at D).  Raises
+    FitFailure UNREACHABLE_PRESSURE when the fabric cannot give a target within its
+    strain limit (:func:`app.geometry.garment.knitting.knit_rows`)."""
     z_d, z_g = float(profile_heights_mm[0]), float(profile_heights_mm[-1])
     grid = np.arange(z_d + step_mm, z_g + 1e-9, step_mm)
     heights = np.unique(np.round(np.concatenate([grid, [level_heights_mm[n] for n in ("E", "F", "G")]]), 6))
@@ -72,33 +67,24 @@ def thigh_part(profile_heights_mm: np.ndarray, profile_girths_mm: np.ndarray, le
     anchors_z = [z_d, level_heights_mm["F"], level_heights_mm["G"]]
     anchors_p = [pressure_d_mmhg, THIGH_GRADIENT["F"]["target"] * target_b_mmhg, THIGH_GRADIENT["G"]["target"] * target_b_mmhg]
     target = np.interp(heights, anchors_z, anchors_p)
-    tension = target * PA_PER_MMHG * girth / (2 * np.pi * PA_PER_N_PER_CM_PER_MM)
-    strain = fabric.strain_for(tension)
-    if not np.isfinite(strain).all():
-        worst = int(np.nanargmax(np.where(np.isfinite(strain), -np.inf, tension)))
-        raise FitFailure(FailureReason.UNREACHABLE_PRESSURE,
-                         f"on the thigh at {heights[worst]:.0f} mm the target {target[worst]:.1f} mmHg needs a tension of "
-                         f"{tension[worst]:.2f} N/cm, more than the fabric gives within its strain limit: choose a "
-                         "stiffer fabric or a lower class")
-    relaxed = np.round(girth / (1.0 + strain) / resolution_mm) * resolution_mm
-    strain_knit = girth / relaxed - 1.0
-    tension_knit = fabric.tension(np.maximum(strain_knit, 0.0))
-    mean_pa = 2 * np.pi * tension_knit * PA_PER_N_PER_CM_PER_MM / girth
+    knitted = knit_rows(heights, target, girth, fabric, resolution_mm, where="on the thigh at")
+    mean_pa = laplace_mean_pa(knitted.tension_n_per_cm, girth)
     levels = {}
     for name in ("E", "F", "G"):
         i = int(np.argmin(np.abs(heights - level_heights_mm[name])))
         levels[name] = ThighLevel(float(heights[i]), float(target[i]), float(mean_pa[i] / PA_PER_MMHG), float(girth[i]),
-                                  float(relaxed[i]), float(strain_knit[i]), float(tension_knit[i]))
-    return ThighPart(heights, target, girth, tension_knit, strain_knit, relaxed, mean_pa, levels,
-                     _thigh_checks(levels, target_b_mmhg, pressure_d_mmhg))
+                                  float(knitted.relaxed_mm[i]), float(knitted.strain[i]), float(knitted.tension_n_per_cm[i]))
+    rows = KnittingSpec(heights, target, girth, knitted.tension_n_per_cm, knitted.strain, knitted.relaxed_mm, mean_pa)
+    return ThighPart(rows, levels, _thigh_checks(levels, target_b_mmhg, pressure_d_mmhg))
 
 
-def _thigh_checks(levels: dict[str, ThighLevel], target_b: float, pressure_d: float) -> tuple:
+def _thigh_checks(levels: dict[str, ThighLevel], target_b: float, pressure_d: float) -> tuple[DesignCheck, ...]:
     p = {name: level.mean_pressure_mmhg for name, level in levels.items()}
-    checks: list[tuple[str, float | list[float], bool, bool]] = [("graded D > E > F > G", [pressure_d, p["E"], p["F"], p["G"]],
-               bool(pressure_d > p["E"] > p["F"] > p["G"]), True)]
+    checks = [DesignCheck("graded D > E > F > G", [pressure_d, p["E"], p["F"], p["G"]],
+                          bool(pressure_d > p["E"] > p["F"] > p["G"]), True)]
     for name, row in THIGH_GRADIENT.items():
         lo, hi = row["range"]
         ratio = p[name] / target_b
-        checks.append((f"{name} {lo:.0%}-{hi:.0%} of B ({row['source']})", ratio, bool(lo <= ratio <= hi), row["normative"]))
+        checks.append(DesignCheck(f"{name} {lo:.0%}-{hi:.0%} of B ({row['source']})", ratio, bool(lo <= ratio <= hi),
+                                  row["normative"]))
     return tuple(checks)
