@@ -8,9 +8,10 @@ from app.geometry.anatomy.landmarks import (
     CROWN_FRACTION,
     EDGE_REACH_MM,
     HIGH_CONFIDENCE_MM,
-    WAIST_FIT_MM,
+    WAIST_MIN_FLANK_MM,
     _minimum_reached_at_edge,
     height_tolerances,
+    smooth_profile,
     waist_vertex,
 )
 
@@ -70,12 +71,29 @@ def test_the_waist_vertex_moves_less_with_noise_than_the_lowest_section():
     assert lowest_p95 > 3 * vertex_p95
 
 
-def test_a_waist_whose_window_leaves_the_scan_keeps_its_lowest_section():
+def test_a_waist_nearer_the_scan_end_than_a_flank_keeps_its_lowest_section():
     rng = np.random.default_rng(5)
-    heights, girth = _noisy_waist(rng, 10.0)
+    heights, girth = _noisy_waist(rng, 6.0)
     lowest = int(np.argmin(girth))
-    assert heights[lowest] < WAIST_FIT_MM
+    assert heights[lowest] < WAIST_MIN_FLANK_MM
     assert waist_vertex(heights, girth, lowest, 0.0, 300.0) == heights[lowest]
+
+
+def test_a_waist_whose_window_the_scan_cuts_short_is_fitted_as_far_as_it_goes():
+    """A knee-high scan stopping 15 mm above D: the clipped window (20 mm below, 15
+    above) still finds the vertex, over 200 re-draws of the noise, much closer than the
+    lowest single section does."""
+    rng = np.random.default_rng(6)
+    vertex_errors, lowest_errors = [], []
+    for _ in range(200):
+        heights, girth = _noisy_waist(rng, 150.0)
+        girth[heights > 165.0] = np.nan  # the scan ends 15 mm above the waist
+        lowest = int(np.nanargmin(smooth_profile(heights, girth)))  # as find_feature_heights picks it
+        vertex_errors.append(waist_vertex(heights, girth, lowest, 0.0, 165.0) - 150.0)
+        lowest_errors.append(heights[lowest] - 150.0)
+    vertex_p95 = np.percentile(np.abs(vertex_errors), 95)
+    assert vertex_p95 < 2.5
+    assert np.percentile(np.abs(lowest_errors), 95) > 2 * vertex_p95
 
 
 def test_tolerances_are_long_on_a_flat_crown_and_short_on_a_steep_rise():

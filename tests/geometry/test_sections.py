@@ -1,10 +1,11 @@
 """Polar resampling of mesh and point-cloud sections (paper section 2.1)."""
 
 import numpy as np
+import pytest
 
-from app.geometry.sections import polygon_perimeter, ray_angles, slice_mesh_polar
+from app.geometry.sections import polygon_perimeter, ray_angles, slice_mesh_polar, tape_band_girths, tape_girths
 from app.geometry.sections.cloud import slice_points_polar
-from tests.phantoms import cylinder
+from tests.phantoms import cylinder, tube_mesh
 
 
 def test_cylinder_sections_have_the_true_radius_and_centre():
@@ -71,3 +72,20 @@ def test_elongation_of_a_circle_an_ellipse_and_a_missing_section():
     elongation = sections.elongations()
     assert np.allclose(elongation[:3], [1.0, np.sqrt(1.1), np.sqrt(2.0)], atol=1e-6)
     assert np.isnan(elongation[3])
+
+
+def test_a_tape_band_outvotes_one_spoiled_plane():
+    """A tube of radius 45 mm with a 2 mm ridge standing out to 55 mm 4 mm above the
+    height read (a fold, a seam of two scanner views): the plane through the ridge reads
+    the ridge, the band of five planes across a tape's width reads the leg."""
+    z = np.arange(0.0, 300.01, 0.25)
+    radius = 45.0 + 10.0 * np.exp(-(((z - 154.0) / 1.0) ** 2))
+    leg = tube_mesh(z, radius, radius)
+    heights = np.array([150.0])
+    assert tape_girths(leg.vertices, leg.faces, heights + 4.0)[0] > 2 * np.pi * 54.0
+    assert tape_band_girths(leg.vertices, leg.faces, heights)[0] == pytest.approx(2 * np.pi * 45.0, rel=2e-3)
+    # away from the ridge, the band reads what one plane reads
+    assert tape_band_girths(leg.vertices, leg.faces, heights - 50.0)[0] == pytest.approx(
+        tape_girths(leg.vertices, leg.faces, heights - 50.0)[0], rel=1e-6)
+    # no section in any plane of the band: NaN
+    assert np.isnan(tape_band_girths(leg.vertices, leg.faces, np.array([1000.0]))[0])

@@ -71,10 +71,15 @@ TAPE_RESOLUTION_MM = 2.0
 #: around it - D moved up to 9 mm between re-scans of one leg - while the vertex of a
 #: fit to the ~40 sections of +-20 mm averages that noise; anatomy: the ankle and knee
 #: waists are smooth minima, within 20 mm of which the girth rises 1-5 mm, enough to
-#: measure the curvature and still parabolic).  The vertex is used only when the window
-#: lies wholly inside the scan and the search window, and it falls within
-#: WAIST_FIT_MM / 2 of the lowest section; otherwise the lowest section stays
+#: measure the curvature and still parabolic).  The vertex is used only when it falls
+#: within WAIST_FIT_MM / 2 of the lowest section; otherwise the lowest section stays
 WAIST_FIT_MM = 20.0
+#: ... a window cut short by the scan's end or the landmark's search window is fitted as
+#: far as it goes, when it still reaches this far to each side of the lowest section
+#: (half the window: both flanks of the waist are measured, so the curvature is).  A
+#: knee-high scan stops 15-45 mm above D: the lowest single section, which it used to
+#: fall back to, moved D by up to 3 mm between re-scans of one leg
+WAIST_MIN_FLANK_MM = 10.0
 #: the ankle B is the narrowest section of the leg above the foot (anthropometry: the
 #: minimum leg girth, ISO 8559-1 5.3.23); a candidate B with a leg section more than
 #: this fraction narrower below it is a knee waist (the scan starts above the ankle,
@@ -301,16 +306,17 @@ def waist_vertex(heights: np.ndarray, raw: np.ndarray, index: int, low_mm: float
     """Height of a waist (B or D) from the girth around its lowest section, mm.
 
     The vertex of the least-squares parabola fitted to the unsmoothed girth ``raw``
-    (k,) within :data:`WAIST_FIT_MM` of ``heights[index]`` (see there why), when that
-    window lies inside [low_mm, high_mm] (the scan and the landmark's search window),
-    holds at least 10 measured sections, curves upwards and puts its vertex within half
-    the window of the lowest section; otherwise ``heights[index]``.  heights (k,)
-    ascending, mm.
+    (k,) within :data:`WAIST_FIT_MM` of ``heights[index]`` (see there why), the window
+    clipped to [low_mm, high_mm] (the scan and the landmark's search window) when it
+    still reaches :data:`WAIST_MIN_FLANK_MM` to each side; it must hold at least 10
+    measured sections, curve upwards and put its vertex within half the window of the
+    lowest section; otherwise ``heights[index]``.  heights (k,) ascending, mm.
     """
     z0 = float(heights[index])
-    if z0 - WAIST_FIT_MM < low_mm or z0 + WAIST_FIT_MM > high_mm:
+    low, high = max(z0 - WAIST_FIT_MM, low_mm), min(z0 + WAIST_FIT_MM, high_mm)
+    if min(z0 - low, high - z0) < WAIST_MIN_FLANK_MM:
         return z0
-    near = (np.abs(heights - z0) <= WAIST_FIT_MM) & np.isfinite(raw)
+    near = (heights >= low) & (heights <= high) & np.isfinite(raw)
     if near.sum() < 10:
         return z0
     c, b, _ = np.polyfit(heights[near] - z0, raw[near], 2)
