@@ -325,7 +325,10 @@ def parse_record(data: dict) -> CalfRecord:
     periodic = bool(surf.get("periodic_u", False))
     if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
         raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
-    surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    try:  # the basis contract: u periodic or clamped, v clamped, no break inside
+        surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
+    except ValueError as broken:
+        raise _invalid(f"surface: {broken}") from None
     check_surface_cost(surface)  # before anything is evaluated
     _check_closed_around(surface)
     frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)

@@ -4,16 +4,15 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
+from app.geometry.spline.basis import BSplineBasis
 from app.geometry.spline.nurbs import (
     NurbsSurface,
-    basis_matrix,
     chord_length_parameters,
     evaluate_derivatives,
     evaluate_grid,
     hartley_judd_knots,
     interpolate_closed_cubic,
     periodic_knot_vector,
-    solve_cyclic_tridiagonal,
     surface_from_layers,
 )
 
@@ -28,30 +27,43 @@ def _layers(m=15, seed=0):
     return np.array(out)
 
 
-def test_basis_is_partition_of_unity_and_matches_scipy():
+def test_a_basis_is_a_partition_of_unity_with_degree_plus_one_functions_per_point():
     knots = np.array([0, 0, 0, 0, 0.1, 0.35, 0.5, 0.8, 1, 1, 1, 1.0])
+    basis = BSplineBasis(knots, 3)
     u = np.linspace(0, 1, 101)
-    b = basis_matrix(knots, 3, 8, u, order=2)
-    assert np.allclose(b[0].sum(axis=1), 1.0)
-    for i in range(8):
-        coeffs = np.zeros(8)
-        coeffs[i] = 1
-        spline = BSpline(knots, coeffs, 3)
-        assert np.allclose(b[0][:, i], spline(u), atol=1e-12)
-        assert np.allclose(b[1][:, i], spline.derivative(1)(u), atol=1e-9)
-        assert np.allclose(b[2][:, i], spline.derivative(2)(u), atol=1e-7)
+    columns, values = basis.local(u)
+    assert basis.n_functions == 8 and basis.domain == (0.0, 1.0)
+    assert columns.shape == values.shape == (101, 4)
+    assert np.allclose(values.sum(axis=1), 1.0) and (values >= 0).all()
+    dense = basis.design_matrix(u).toarray()
+    for i in range(8):  # each column is the i-th basis function, N_i = BSpline with e_i
+        assert np.allclose(dense[:, i], BSpline(knots, np.eye(8)[i], 3)(u), atol=1e-12)
 
 
-def test_cyclic_tridiagonal_solver_matches_dense_solve():
-    rng = np.random.default_rng(1)
-    m = 11
-    lower, upper = rng.uniform(0.1, 0.3, m), rng.uniform(0.1, 0.3, m)
-    diag = rng.uniform(1.0, 2.0, m)
-    rhs = rng.normal(size=(m, 3))
-    dense = np.diag(diag) + np.diag(lower[1:], -1) + np.diag(upper[:-1], 1)
-    dense[0, m - 1] = lower[0]
-    dense[m - 1, 0] = upper[m - 1]
-    assert np.allclose(solve_cyclic_tridiagonal(lower, diag, upper, rhs), np.linalg.solve(dense, rhs))
+@pytest.mark.parametrize("knots,periodic,rule", [
+    ([0, 0, 0, 0, 0.5, 0.4, 1, 1, 1, 1], False, "non-decreasing"),
+    ([0, 0, 0, 0, 0, 0, 0, 0], False, "empty domain"),
+    ([0, 0, 0, 0, 0.5, 0.5, 0.5, 0.5, 1, 1, 1, 1], False, "repeats more than 3"),
+    ([0, 0, 0, 0.2, 0.5, 1, 1, 1, 1], False, "clamped"),
+    ([-0.3, -0.2, -0.1, 0.0, 0.1, 0.5, 1.0, 1.1, 1.2, 1.3], True, "repeat every"),
+    ([0, 0, 0, 0, np.nan, 1, 1, 1, 1], False, "finite"),
+])
+def test_a_basis_refuses_knots_that_break_its_contract(knots, periodic, rule):
+    with pytest.raises(ValueError, match=rule):
+        BSplineBasis(np.array(knots, dtype=float), 3, periodic)
+
+
+def test_a_surface_checks_its_net_against_its_knots():
+    layers = _layers()
+    surface = surface_from_layers(layers)
+    assert surface.basis_u.periodic and not surface.basis_v.periodic
+    with pytest.raises(ValueError, match="control net"):
+        NurbsSurface(3, 3, surface.knots_u, surface.knots_v, surface.control_points[:-1], surface.weights[:-1])
+    with pytest.raises(ValueError, match="positive"):
+        NurbsSurface(3, 3, surface.knots_u, surface.knots_v, surface.control_points, -surface.weights)
+    with pytest.raises(ValueError, match="repeat every"):  # periodic claimed, clamped u knots given
+        NurbsSurface(3, 3, np.r_[np.zeros(3), np.linspace(0, 1, len(surface.knots_u) - 6), np.ones(3)],
+                     surface.knots_v, surface.control_points, surface.weights)
 
 
 def test_closed_interpolation_passes_through_points_and_is_c2_closed():

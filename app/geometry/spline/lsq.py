@@ -42,7 +42,7 @@ calf takes part:
    where a hole leaves no points; where the points are dense it is negligible.
 
 Solving: every point's row of the collocation matrix has 4 x 4 non-zeros (the product
-of the u and v cubic bases, scipy's ``BSpline.design_matrix``), so the normal
+of the u and v cubic bases, :class:`~app.geometry.spline.basis.BSplineBasis`), so the normal
 equations ``(A^T W A + lambda D^T D) x = A^T W q`` (W: the weights 1/r_k^2 that make
 the squares those of the error index E, paper eq. 4; SDM couples x, y and z through
 3 x 3 blocks) are assembled sparse (a few thousand unknowns at most) and factorized
@@ -58,13 +58,14 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import BSpline, PchipInterpolator
+from scipy.interpolate import PchipInterpolator
 from scipy.sparse import block_diag, bmat, csr_matrix, diags, vstack
 from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.sections import PolarSections
+from app.geometry.spline.basis import BSplineBasis
 from app.geometry.spline.distance import foot_points
 from app.geometry.spline.nurbs import NurbsSurface, evaluate_derivatives, evaluate_grid
 
@@ -130,14 +131,13 @@ def clamped_knots(n: int) -> np.ndarray:
 
 def _periodic_basis(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Column indices (N, 4) in [0, n) and values (N, 4) of the periodic cubic basis."""
-    design = BSpline.design_matrix(np.mod(u, 1.0), periodic_knots(n), DEGREE, extrapolate="periodic")
-    return np.mod(design.indices.reshape(-1, DEGREE + 1), n), design.data.reshape(-1, DEGREE + 1)
+    columns, values = BSplineBasis(periodic_knots(n), DEGREE, periodic=True).local(np.mod(u, 1.0))
+    return np.mod(columns, n), values
 
 
 def _clamped_basis(v: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Column indices (N, 4) and values (N, 4) of the clamped cubic basis, v in [0, 1]."""
-    design = BSpline.design_matrix(np.clip(v, 0.0, 1.0), clamped_knots(n), DEGREE)
-    return design.indices.reshape(-1, DEGREE + 1), design.data.reshape(-1, DEGREE + 1)
+    return BSplineBasis(clamped_knots(n), DEGREE).local(np.clip(v, 0.0, 1.0))
 
 
 def collocation(u: np.ndarray, v: np.ndarray, grid: LsqGrid) -> csr_matrix:

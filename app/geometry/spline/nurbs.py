@@ -1,7 +1,8 @@
 """B-spline/NURBS machinery (paper sections 2.4-2.5; Piegl & Tiller, *The NURBS Book*).
 
-All evaluation is vectorized over parameter values: the only Python loops run over the
-degree (3) and the derivative order (<= 2).
+The basis functions are scipy's (:mod:`app.geometry.spline.basis`): evaluation on
+grids through their sparse design matrices, derivatives at scattered points through
+``scipy.interpolate.NdBSpline``, interpolation through ``make_interp_spline``.
 
 Representation (the standard open one every NURBS library reads)
 -----------------------------------------------------------------
@@ -19,7 +20,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_banded
+from scipy.interpolate import NdBSpline, make_interp_spline
+
+from app.geometry.spline.basis import BSplineBasis
 
 
 @dataclass(frozen=True)
@@ -35,6 +38,10 @@ class NurbsSurface:
     weights : (nu, nv) float64, all > 0
     periodic_u : bool
         True when the surface is closed in u (the first ``degree_u`` columns repeat).
+
+    The contract (:class:`~app.geometry.spline.basis.BSplineBasis`: u periodic or
+    clamped, v clamped; the net's shape matching the knots; positive weights) is checked
+    on construction: ValueError names the rule broken.
     """
 
     degree_u: int
@@ -45,114 +52,48 @@ class NurbsSurface:
     weights: np.ndarray
     periodic_u: bool = True
 
+    def __post_init__(self) -> None:
+        basis_u = BSplineBasis(self.knots_u, self.degree_u, self.periodic_u)
+        basis_v = BSplineBasis(self.knots_v, self.degree_v, False)
+        shape = (basis_u.n_functions, basis_v.n_functions)
+        if np.shape(self.control_points) != shape + (3,):
+            raise ValueError(f"the knots ask for a {shape[0]} x {shape[1]} x 3 control net, got {np.shape(self.control_points)}")
+        if np.shape(self.weights) != shape:
+            raise ValueError(f"the weights must be {shape[0]} x {shape[1]} like the control net, got {np.shape(self.weights)}")
+        if not np.all(np.asarray(self.weights) > 0):
+            raise ValueError("the weights must be positive")
+        object.__setattr__(self, "_bases", (basis_u, basis_v))
+
+    @property
+    def basis_u(self) -> BSplineBasis:
+        """Around the leg (periodic for a closed calf)."""
+        return self._bases[0]  # type: ignore[attr-defined]
+
+    @property
+    def basis_v(self) -> BSplineBasis:
+        """Along the leg (clamped: the ends are the first and last control rows)."""
+        return self._bases[1]  # type: ignore[attr-defined]
+
     @property
     def shape(self) -> tuple[int, int]:
         return self.control_points.shape[0], self.control_points.shape[1]
 
     @property
     def domain_u(self) -> tuple[float, float]:
-        nu = self.control_points.shape[0]
-        return float(self.knots_u[self.degree_u]), float(self.knots_u[nu])
+        return self.basis_u.domain
 
     @property
     def domain_v(self) -> tuple[float, float]:
-        nv = self.control_points.shape[1]
-        return float(self.knots_v[self.degree_v]), float(self.knots_v[nv])
+        return self.basis_v.domain
 
     def homogeneous(self) -> np.ndarray:
         """(nu, nv, 4) weighted control points ``[w*x, w*y, w*z, w]``."""
         w = self.weights[..., None]
         return np.concatenate([self.control_points * w, w], axis=-1)
 
-
-# --------------------------------------------------------------------------- basis
-
-
-def find_spans(knots: np.ndarray, degree: int, n_ctrl: int, u: np.ndarray) -> np.ndarray:
-    """Knot span index of each parameter (The NURBS Book A2.1, vectorized).
-
-    Returns (N,) int with ``knots[s] <= u < knots[s+1]``, clamped to ``[degree, n_ctrl-1]``
-    so that the right end of the domain belongs to the last span.
-    """
-    spans = np.searchsorted(knots, u, side="right") - 1
-    return np.clip(spans, degree, n_ctrl - 1)
-
-
-def _ratio(numerator: np.ndarray, denominator: np.ndarray) -> np.ndarray:
-    """numerator / denominator, 0 where the denominator is 0: the knot differences of
-    A2.3 vanish only at a parameter outside its span's support (a repeated knot), where
-    the term they divide is itself 0 (The NURBS Book's 0/0 := 0 convention, eq. 2.5)."""
-    return np.divide(numerator, denominator, out=np.zeros(np.broadcast(numerator, denominator).shape),
-                     where=denominator != 0)
-
-
-def basis_function_derivatives(
-    knots: np.ndarray, degree: int, spans: np.ndarray, u: np.ndarray, order: int
-) -> np.ndarray:
-    """Non-zero basis functions and their derivatives (The NURBS Book A2.3, vectorized).
-
-    Returns (order + 1, N, degree + 1): ``out[k, n, j]`` is the k-th derivative of
-    ``N_{spans[n] - degree + j, degree}`` at ``u[n]``.  ``order`` may exceed ``degree``
-    (higher derivatives are zero).
-    """
-    p = degree
-    u = np.asarray(u, dtype=np.float64)
-    n_pts = u.shape[0]
-    ndu = np.zeros((p + 1, p + 1, n_pts))
-    ndu[0, 0] = 1.0
-    left = np.zeros((p + 1, n_pts))
-    right = np.zeros((p + 1, n_pts))
-    for j in range(1, p + 1):
-        left[j] = u - knots[spans + 1 - j]
-        right[j] = knots[spans + j] - u
-        saved = np.zeros(n_pts)
-        for r in range(j):
-            ndu[j, r] = right[r + 1] + left[j - r]
-            temp = _ratio(ndu[r, j - 1], ndu[j, r])
-            ndu[r, j] = saved + right[r + 1] * temp
-            saved = left[j - r] * temp
-        ndu[j, j] = saved
-    ders = np.zeros((order + 1, p + 1, n_pts))
-    ders[0] = ndu[:, p]
-    for r in range(p + 1):
-        a = np.zeros((2, p + 1, n_pts))
-        a[0, 0] = 1.0
-        s1, s2 = 0, 1
-        for k in range(1, min(order, p) + 1):
-            d = np.zeros(n_pts)
-            rk, pk = r - k, p - k
-            if r >= k:
-                a[s2, 0] = _ratio(a[s1, 0], ndu[pk + 1, rk])
-                d = a[s2, 0] * ndu[rk, pk]
-            j1 = 1 if rk >= -1 else -rk
-            j2 = k - 1 if r - 1 <= pk else p - r
-            for j in range(j1, j2 + 1):
-                a[s2, j] = _ratio(a[s1, j] - a[s1, j - 1], ndu[pk + 1, rk + j])
-                d = d + a[s2, j] * ndu[rk + j, pk]
-            if r <= pk:
-                a[s2, k] = _ratio(-a[s1, k - 1], ndu[pk + 1, r])
-                d = d + a[s2, k] * ndu[r, pk]
-            ders[k, r] = d
-            s1, s2 = s2, s1
-    factor = p
-    for k in range(1, min(order, p) + 1):
-        ders[k] *= factor
-        factor *= p - k
-    return np.transpose(ders, (0, 2, 1))
-
-
-def basis_matrix(
-    knots: np.ndarray, degree: int, n_ctrl: int, u: np.ndarray, order: int = 0
-) -> np.ndarray:
-    """Dense basis matrices: (order + 1, N, n_ctrl), entry [k, n, i] = N_i^(k)(u_n)."""
-    u = np.asarray(u, dtype=np.float64)
-    spans = find_spans(knots, degree, n_ctrl, u)
-    ders = basis_function_derivatives(knots, degree, spans, u, order)
-    out = np.zeros((order + 1, u.shape[0], n_ctrl))
-    cols = spans[:, None] - degree + np.arange(degree + 1)[None, :]
-    rows = np.broadcast_to(np.arange(u.shape[0])[:, None], cols.shape)
-    out[:, rows, cols] = ders
-    return out
+    def is_polynomial(self) -> bool:
+        """All weights 1 (the paper's and the lsq surfaces): a plain B-spline."""
+        return bool(np.all(self.weights == 1.0))
 
 
 # --------------------------------------------------------------------- evaluation
@@ -161,72 +102,23 @@ def basis_matrix(
 def evaluate_grid(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Surface points on the tensor grid ``u x v`` (eq. 1 of the paper).
 
-    u (a,), v (b,) inside the domain; returns (a, b, 3) mm.
+    u (a,), v (b,) inside the domain; returns (a, b, 3) mm.  The two bases' sparse
+    design matrices (scipy) contract the homogeneous net one direction at a time.
     """
     nu, nv = surface.shape
-    bu = basis_matrix(surface.knots_u, surface.degree_u, nu, u)[0]
-    bv = basis_matrix(surface.knots_v, surface.degree_v, nv, v)[0]
+    bu = surface.basis_u.design_matrix(u)
+    bv = surface.basis_v.design_matrix(v).toarray()
     pw = surface.homogeneous()
     rows = (bu @ pw.reshape(nu, nv * 4)).reshape(len(u), nv, 4)
     grid = np.einsum("avc,bv->abc", rows, bv, optimize=True)
     return grid[..., :3] / grid[..., 3:]
 
 
-_SPAN_POLYNOMIALS: dict = {}
-
-
-def span_polynomials(knots: np.ndarray, degree: int, n_ctrl: int) -> np.ndarray:
-    """Power-basis coefficients of the non-zero basis functions on every knot span.
-
-    Returns (n_ctrl - degree, degree + 1, degree + 1): for span s (index s - degree),
-    ``N_{s-degree+j}(u) = sum_k C[s-degree, j, k] t^k`` with t = (u - knots[s]) /
-    (knots[s+1] - knots[s]).  Built once per knot vector from A2.2 values at degree + 1
-    points per span (a Vandermonde solve) and cached; empty spans get zeros.
-    """
-    key = (knots.tobytes(), degree, n_ctrl)
-    cached = _SPAN_POLYNOMIALS.get(key)
-    if cached is not None:
-        return cached
-    spans = np.arange(degree, n_ctrl)
-    width = knots[spans + 1] - knots[spans]
-    nodes = (np.arange(degree + 1) + 0.5) / (degree + 1)  # inside the span, away from its ends
-    u = (knots[spans][:, None] + nodes[None, :] * width[:, None]).ravel()
-    values = basis_function_derivatives(knots, degree, np.repeat(spans, degree + 1), u, 0)[0]
-    values = values.reshape(len(spans), degree + 1, degree + 1)  # [span, node, j]
-    vandermonde = nodes[:, None] ** np.arange(degree + 1)[None, :]  # [node, k]
-    coefficients = np.linalg.solve(vandermonde, values)  # [span, k, j]
-    coefficients = np.transpose(coefficients, (0, 2, 1)).copy()  # [span, j, k]
-    coefficients[width <= 0] = 0.0
-    if len(_SPAN_POLYNOMIALS) > 256:
-        _SPAN_POLYNOMIALS.clear()
-    _SPAN_POLYNOMIALS[key] = coefficients
-    return coefficients
-
-
-def basis_derivatives_fast(knots: np.ndarray, degree: int, n_ctrl: int, u: np.ndarray, spans: np.ndarray) -> np.ndarray:
-    """Same as :func:`basis_function_derivatives` up to order 2, from the span polynomials.
-
-    Returns (3, N, degree + 1).
-    """
-    coefficients = span_polynomials(knots, degree, n_ctrl)[spans - degree]  # (N, p+1, p+1)
-    width = knots[spans + 1] - knots[spans]
-    safe = np.where(width > 0, width, 1.0)
-    t = (u - knots[spans]) / safe
-    inv = 1.0 / safe
-    monomials = np.zeros((len(u), degree + 1, 3))  # [n, power k, derivative order]
-    power = np.ones_like(t)
-    for k in range(degree + 1):  # t^k, k t^(k-1) / h, k (k-1) t^(k-2) / h^2
-        monomials[:, k, 0] = power if k else 1.0
-        if k >= 1:
-            monomials[:, k, 1] = k * monomials[:, k - 1, 0] * inv
-        if k >= 2:
-            monomials[:, k, 2] = k * (k - 1) * monomials[:, k - 2, 0] * inv * inv
-        power = power * t
-    return np.transpose(np.matmul(coefficients, monomials), (2, 0, 1))
-
-
 #: working memory of one chunk of :func:`evaluate_derivatives` (bytes)
 EVALUATION_CHUNK_BYTES = 32 * 1024 * 1024
+
+#: the (u, v) derivative orders :func:`evaluate_derivatives` returns, in its order
+DERIVATIVE_ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
 
 def evaluate_derivatives(
@@ -234,42 +126,26 @@ def evaluate_derivatives(
 ) -> tuple[np.ndarray, ...]:
     """Point and derivatives up to second order at scattered (u, v) pairs.
 
-    Rational derivatives by the quotient rule of The NURBS Book eq. (4.20) / A4.4; a
-    surface whose weights are all 1 (the paper's) takes the polynomial shortcut.
+    The polynomial (homogeneous) parts from ``scipy.interpolate.NdBSpline``; rational
+    derivatives by the quotient rule of The NURBS Book eq. (4.20) / A4.4; a surface
+    whose weights are all 1 (the paper's) takes the polynomial shortcut.
     u, v (N,); returns ``S, Su, Sv, Suu, Suv, Svv``, each (N, 3) mm.
     """
-    nu, nv = surface.shape
-    p, q = surface.degree_u, surface.degree_v
     u = np.asarray(u, dtype=np.float64)
     v = np.asarray(v, dtype=np.float64)
-    # the gathered patches take (p+1)(q+1) x 4 channels x ~5 arrays of float64 per point:
-    # evaluated in chunks of EVALUATION_CHUNK_BYTES, so memory does not grow with N
-    chunk = max(1024, EVALUATION_CHUNK_BYTES // (8 * (p + 1) * (q + 1) * 4 * 5))
+    # scipy gathers (p+1)(q+1) x 4 channels per point and order: evaluated in chunks of
+    # EVALUATION_CHUNK_BYTES, so memory does not grow with N
+    chunk = max(1024, EVALUATION_CHUNK_BYTES // (8 * (surface.degree_u + 1) * (surface.degree_v + 1) * 4 * 6))
     if len(u) > chunk:
         parts = [evaluate_derivatives(surface, u[i:i + chunk], v[i:i + chunk]) for i in range(0, len(u), chunk)]
         return tuple(np.concatenate([part[k] for part in parts]) for k in range(6))
-    su = find_spans(surface.knots_u, p, nu, u)
-    sv = find_spans(surface.knots_v, q, nv, v)
-    du = basis_derivatives_fast(surface.knots_u, p, nu, u, su)  # (3, N, p+1)
-    dv = basis_derivatives_fast(surface.knots_v, q, nv, v, sv)  # (3, N, q+1)
-    iu = su[:, None] - p + np.arange(p + 1)
-    iv = sv[:, None] - q + np.arange(q + 1)
-    flat_index = iu[:, :, None] * nv + iv[:, None, :]  # (N, p+1, q+1)
-    polynomial = bool(np.all(surface.weights == 1.0))
-    channels = 3 if polynomial else 4
+    polynomial = surface.is_polynomial()
     net = surface.control_points if polynomial else surface.homogeneous()
-    patch = net.reshape(nu * nv, channels)[flat_index]  # (N, p+1, q+1, c)
-    # contract v first: (N, p+1, c, q+1) @ (N, 1, q+1, 3) -> (N, p+1, c, 3 v-orders)
-    along_v = np.matmul(patch.transpose(0, 1, 3, 2), dv.transpose(1, 2, 0)[:, None])
-    # then u: (N, 3 u-orders, p+1) @ (N, p+1, c*3) -> (N, 3, c, 3): [n, k, coord, v-order]
-    both = np.matmul(du.transpose(1, 0, 2), along_v.reshape(len(u), p + 1, channels * 3)).reshape(len(u), 3, channels, 3)
-
-    def a(k: int, order_v: int) -> np.ndarray:  # the k-th u and order_v-th v derivative
-        return both[:, k, :, order_v]
-
+    spline = NdBSpline((surface.knots_u, surface.knots_v), net, (surface.degree_u, surface.degree_v))
+    xi = np.column_stack([u, v])
+    a00, a10, a01, a20, a11, a02 = (spline(xi, nu=order) for order in DERIVATIVE_ORDERS)
     if polynomial:
-        return a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)
-    a00, a10, a01, a20, a11, a02 = a(0, 0), a(1, 0), a(0, 1), a(2, 0), a(1, 1), a(0, 2)
+        return a00, a10, a01, a20, a11, a02
     w, wu, wv = a00[:, 3:], a10[:, 3:], a01[:, 3:]
     wuu, wuv, wvv = a20[:, 3:], a11[:, 3:], a02[:, 3:]
     s = a00[:, :3] / w
@@ -314,54 +190,23 @@ def periodic_knot_vector(params: np.ndarray, degree: int) -> np.ndarray:
     return params[:-1][j % m] + np.floor_divide(j, m) * period
 
 
-def solve_cyclic_tridiagonal(
-    lower: np.ndarray, diag: np.ndarray, upper: np.ndarray, rhs: np.ndarray
-) -> np.ndarray:
-    """Solve a cyclic tridiagonal system (paper eq. 3) by Sherman-Morrison + banded LU.
-
-    Row i reads ``lower[i] x[i-1] + diag[i] x[i] + upper[i] x[i+1] = rhs[i]`` with the
-    indices taken cyclically.  lower, diag, upper (m,); rhs (m, r).  Returns (m, r).
-    """
-    m = len(diag)
-    gamma = -diag[0]
-    top_right, bottom_left = lower[0], upper[m - 1]
-    band = np.zeros((3, m))
-    band[0, 1:] = upper[:-1]
-    band[1] = diag
-    band[1, 0] -= gamma
-    band[1, m - 1] -= top_right * bottom_left / gamma
-    band[2, :-1] = lower[1:]
-    correction = np.zeros((m, 1))
-    correction[0, 0] = gamma
-    correction[m - 1, 0] = bottom_left
-    solved = solve_banded((1, 1), band, np.concatenate([rhs, correction], axis=1))
-    y, z = solved[:, :-1], solved[:, -1]
-    factor = (y[0] + top_right * y[m - 1] / gamma) / (1.0 + z[0] + top_right * z[m - 1] / gamma)
-    return y - z[:, None] * factor[None, :]
-
-
 def interpolate_closed_cubic(points: np.ndarray, params: np.ndarray) -> np.ndarray:
     """Control points of closed cubic B-splines through ``points`` at ``params``.
 
     Paper section 2.4 (eq. 3) / The NURBS Book section 9.2.4 for a periodic curve: the
     curve ``sum_i N_{i,3}(u) P_{i mod m}`` on :func:`periodic_knot_vector` must pass
-    through Q_k at u = t_k, which is a cyclic tridiagonal system in the control points.
+    through Q_k at u = t_k, a cyclic tridiagonal system in the control points, which
+    ``scipy.interpolate.make_interp_spline(..., bc_type="periodic")`` solves (its knots
+    are :func:`periodic_knot_vector`'s).
 
     points (L, m, d): L closed curves sharing the parameters params (m + 1,).
     Returns (L, m + 3, d) unwrapped control points (first 3 repeated at the end).
     """
     layers, m, dim = points.shape
-    degree = 3
-    knots = periodic_knot_vector(params, degree)
-    t = params[:-1]
-    spans = np.arange(m) + degree
-    basis = basis_function_derivatives(knots, degree, spans, t, 0)[0]  # (m, 4); [:, 3] == 0
-    # row k: basis[k,0] P_k + basis[k,1] P_{k+1} + basis[k,2] P_{k+2}; unknown x_k = P_{k+1}
-    rhs = np.transpose(points, (1, 0, 2)).reshape(m, layers * dim)
-    x = solve_cyclic_tridiagonal(basis[:, 0], basis[:, 1], basis[:, 2], rhs)
-    control = np.roll(x.reshape(m, layers, dim), 1, axis=0)  # P_k = x_{k-1}
-    control = np.transpose(control, (1, 0, 2))
-    return np.concatenate([control, control[:, :degree]], axis=1)
+    closed = np.concatenate([points, points[:, :1]], axis=1)  # the first point again at t = 1
+    values = np.transpose(closed, (1, 0, 2)).reshape(m + 1, layers * dim)
+    spline = make_interp_spline(params, values, k=3, bc_type="periodic")
+    return np.transpose(spline.c.reshape(m + 3, layers, dim), (1, 0, 2))
 
 
 def hartley_judd_knots(polygon: np.ndarray, degree: int = 3) -> np.ndarray:
@@ -390,13 +235,12 @@ def averaged_knots(params: np.ndarray, degree: int) -> np.ndarray:
 
 
 def interpolate_open(points: np.ndarray, params: np.ndarray, knots: np.ndarray, degree: int = 3) -> np.ndarray:
-    """Control points of open (clamped) B-splines through points at params (NURBS Book A9.1).
+    """Control points of open (clamped) B-splines through points at params (NURBS Book
+    A9.1, solved by ``scipy.interpolate.make_interp_spline`` on the given knots).
 
     points (n + 1, r) - r independent coordinate columns; returns (n + 1, r).
     """
-    n_ctrl = len(params)
-    matrix = basis_matrix(knots, degree, n_ctrl, params)[0]
-    return np.linalg.solve(matrix, points)
+    return make_interp_spline(params, points, k=degree, t=knots).c
 
 
 def surface_from_layers(
