@@ -89,3 +89,8 @@ def test_a_tape_band_outvotes_one_spoiled_plane():
         tape_girths(leg.vertices, leg.faces, heights - 50.0)[0], rel=1e-6)
     # no section in any plane of the band: NaN
     assert np.isnan(tape_band_girths(leg.vertices, leg.faces, np.array([1000.0]))[0])
+    # the band only half on the leg: only the planes whose mirror has a section count -
+    # none at 301 mm (the tube ends at 300), the middle plane alone at 299
+    assert np.isnan(tape_band_girths(leg.vertices, leg.faces, np.array([301.0]))[0])
+    assert tape_band_girths(leg.vertices, leg.faces, np.array([299.0]))[0] == pytest.approx(
+        tape_girths(leg.vertices, leg.faces, np.array([299.0]))[0], rel=1e-9)

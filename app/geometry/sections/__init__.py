@@ -50,7 +50,9 @@ def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarra
 def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,) read across a tape's width: the median of
     :func:`tape_girths` on the planes :data:`TAPE_BAND_OFFSETS_MM` about each height
-    (the planes without a section left out), mm; NaN where none of them has one.
+    (a plane without a section is left out, and so is its mirror about the height),
+    mm; NaN where no mirrored pair (or the middle plane) has a section: the caller then
+    reads the girth some other way.
     points (n, 3) mm in the frame whose z the heights are; faces (f, 3) or None."""
     heights = np.asarray(heights, dtype=np.float64)
     planes = (heights[:, None] + TAPE_BAND_OFFSETS_MM[None, :]).ravel()
@@ -58,9 +60,13 @@ def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.n
     flat = np.empty(len(planes))
     flat[order] = tape_girths(points, faces, planes[order])
     girths = flat.reshape(len(heights), len(TAPE_BAND_OFFSETS_MM))
-    measured = np.isfinite(girths).any(axis=1)
+    # a band read on one side only is not a reading at the height (on B1's slope, a
+    # sparse cloud measured only 4 mm above B1 reads its girth 4 mm up): only the planes
+    # whose mirror about the height is measured too count
+    symmetric = np.isfinite(girths) & np.isfinite(girths[:, ::-1])
+    measured = symmetric.any(axis=1)
     out = np.full(len(heights), np.nan)
-    out[measured] = np.nanmedian(girths[measured], axis=1)
+    out[measured] = np.nanmedian(np.where(symmetric, girths, np.nan)[measured], axis=1)
     return out
 
 
