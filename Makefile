@@ -5,7 +5,7 @@ BIN    := $(VENV)/bin
 HOST   ?= 127.0.0.1
 PORT   ?= 8000
 
-.PHONY: run test lint install bench openapi clean web-vendor
+.PHONY: run test test-slow lint install bench openapi clean web-vendor
 
 $(BIN)/activate:
 	$(PYTHON) -m venv $(VENV)
@@ -20,8 +20,13 @@ install: $(VENV)/.installed
 run: install
 	$(BIN)/calf-nurbs serve --host $(HOST) --port $(PORT)
 
+# the suite without the slow end-to-end tests (marked slow: browsers, fuzzers, served
+# processes, corpora); test-slow runs those; .ci/run runs both
 test: install
 	$(BIN)/python -m pytest
+
+test-slow: install
+	$(BIN)/python -m pytest -m slow
 
 # style and the numerical core's types (settings in pyproject.toml); .ci/run runs it
 lint: install

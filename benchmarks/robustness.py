@@ -81,7 +81,13 @@ def main() -> None:
         fit = fit_scan(scan, FitOptions(side=side), placement=check_scan(scan, FitOptions(side=side)))
         seconds = time.perf_counter() - started
         tape = fit.landmarks.tape_girths_mm
-        real.append({"file": file, "side": side, "seconds": seconds, "tape": tape, "reference": {"B": b, "C": c, "D": d}})
+        marks = fit.landmarks
+        # issue 20: the surface on the skin (paper and lsq 12x24) and B1 35-85% of the way from B to C
+        lsq = fit_scan(scan, FitOptions(side=side, mode="lsq", grid="12x24"), placement=check_scan(scan, FitOptions(side=side)))
+        real.append({"file": file, "side": side, "seconds": seconds, "tape": tape, "reference": {"B": b, "C": c, "D": d},
+                     "b1_share": (marks.B1.height_mm - marks.B.height_mm) / (marks.C.height_mm - marks.B.height_mm),
+                     "skin_mm": {"paper": fit.skin.as_dict(), "lsq 12x24": lsq.skin.as_dict()},
+                     "warnings": {"paper": fit.warnings, "lsq 12x24": lsq.warnings}})
     (RESULTS / f"robustness{_suffix(seed)}.json").write_text(json.dumps({"cases": rows, "real": real}, indent=1, default=str))
     write_markdown(rows, real, n, seed)
 
@@ -124,11 +130,18 @@ def write_markdown(rows, real, n, seed) -> None:
     lines += ["## Side of a single leg from its foot", "",
               f"- fitted single legs with the foot and no side given: {len(single)}; side reported for {len(told)}, "
               f"right {correct}, wrong {len(told) - correct}, left null {len(single) - len(told)}", ""]
-    lines += ["## Real legs (tests/data/real): tape girths against the reference table", "",
-              "| leg | B | C | D | seconds |", "|---|---|---|---|---|"]
+    lines += ["## Real legs (tests/data/real): tape girths against the reference table, the surface on the skin", "",
+              "Surface -> scan: the record's `fit.surface_to_scan` (p99 / max mm), paper 7x15 and lsq 12x24; "
+              "B1's place as a share of the way from B to C (issue 20: 0.35-0.85).", "",
+              "| leg | B | C | D | B1 share | paper p99 / max | lsq 12x24 p99 / max | warnings | seconds |",
+              "|---|---|---|---|---|---|---|---|---|"]
     for r in real:
-        t, ref = r["tape"], r["reference"]
-        lines.append(f"| {r['file']} {r['side'] or ''} | {t['B']:.1f} ({ref['B']}) | {t['C']:.1f} ({ref['C']}) | {t['D']:.1f} ({ref['D']}) | {r['seconds']:.2f} |")
+        t, ref, skin = r["tape"], r["reference"], r["skin_mm"]
+        paper, lsq = skin["paper"], skin["lsq 12x24"]
+        warned = sum(len(w) for w in r["warnings"].values())
+        lines.append(f"| {r['file']} {r['side'] or ''} | {t['B']:.1f} ({ref['B']}) | {t['C']:.1f} ({ref['C']}) | {t['D']:.1f} ({ref['D']}) | "
+                     f"{r['b1_share']:.2f} | {paper['p99_mm']:.2f} / {paper['max_mm']:.2f} | {lsq['p99_mm']:.2f} / {lsq['max_mm']:.2f} | "
+                     f"{warned} | {r['seconds']:.2f} |")
     bad = [r for r in rows if not r["right"]]
     lines += ["", f"## Cases not right ({len(bad)})", ""]
     for r in bad:

@@ -17,6 +17,9 @@ from tests.api.conftest import make_settings, serve_settings, wait_for_job
 from tests.api.malformed_scans import FITS, malformed_scans
 from tests.conftest import REAL
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 CORPUS = {case.name: case for case in malformed_scans()}
 #: what a detail must never show: a server path, a traceback, a library's exception name
 LEAKS = re.compile(r"/(tmp|work|home|root|usr|var|etc)/|Traceback|\b[A-Z]\w*(Error|Exception)\b|File \"")

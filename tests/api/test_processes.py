@@ -15,6 +15,9 @@ from sqlalchemy.exc import OperationalError
 from benchmarks.served import BIN, free_port, start, stop, wait_ready  # noqa: F401 - used by other test modules
 from tests.conftest import REAL
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 PG_ADMIN_URL = os.environ.get("CALF_TEST_PG_ADMIN", "postgresql+psycopg://postgres@127.0.0.1:5432/postgres")
 
 

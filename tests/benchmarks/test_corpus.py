@@ -13,6 +13,9 @@ import pytest
 from benchmarks.corpus.cases import build_case, corpus_specs
 from benchmarks.corpus.evaluate import run_case
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 #: one or two cases of the kinds a clinic sends most (seeded: always the same scans)
 SUBSET = ["mesh_clean-00", "knee_high-00", "knee_high_cloud-00", "ankle_to_thigh-00", "holes-00",
           "cloud-00", "cloud_noise-00", "cloud_outliers-00", "cloud_uneven-00", "cloud_holes-00",

@@ -18,6 +18,9 @@ from sqlalchemy import create_engine, text
 from tests.api.test_processes import free_port, postgres_url, start, stop, wait_ready  # noqa: F401 - a fixture
 from tests.conftest import REAL
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 REDIS_URL = os.environ.get("CALF_TEST_REDIS", "redis://127.0.0.1:6379/0")
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
 BODY = (REAL / "vh_male_skin.glb").read_bytes()

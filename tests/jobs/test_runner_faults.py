@@ -9,12 +9,16 @@ import time
 from datetime import timedelta
 from pathlib import Path
 
+import pytest
 from sqlalchemy import func, select, update
 
 from app.db.migrate import upgrade_to_head
 from app.db.models import Job, Record, utcnow
 from tests.api.conftest import make_settings, serve_settings, wait_for_job
 from tests.conftest import REAL
+
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
 
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
 BODY = (REAL / "vh_male_skin.glb").read_bytes()  # a whole body: a fit of a few seconds

@@ -21,6 +21,9 @@ from sqlalchemy import create_engine, text
 from tests.api.test_processes import free_port, postgres_url, start, stop, wait_ready  # noqa: F401 - a fixture
 from tests.conftest import REAL
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 LEG = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
 
 

@@ -20,6 +20,9 @@ import pytest
 from benchmarks.served import served_with_key
 from tests.conftest import REAL
 
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
+
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = os.environ.get("CALF_CHROMIUM", "/usr/bin/chromium")
 SHOTS = ROOT / "docs" / "screenshots" if os.environ.get("CALF_UPDATE_SCREENSHOTS") == "1" else None
