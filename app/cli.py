@@ -263,12 +263,14 @@ def _cmd_size(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from app.geometry.garment.size_charts import record_chart_measures, size_chart_dict_from_csv, size_chart_from_dict, size_decision
-    from app.services.size_charts import example_chart
+    from app.services.size_charts import EXAMPLE_AG_CHART_ID, example_chart
 
     try:
         record = _load_record(args.record)
         if args.chart == "example":
             chart = example_chart()
+        elif args.chart == "example-ag":
+            chart = example_chart(EXAMPLE_AG_CHART_ID)
         else:
             text = Path(args.chart).read_text()
             chart = size_chart_from_dict(size_chart_dict_from_csv(text) if args.chart.lower().endswith(".csv") else json.loads(text))
@@ -374,7 +376,8 @@ def build_parser() -> argparse.ArgumentParser:
     size = sub.add_parser("size", help="the ready-to-wear size decision of a record on a size chart")
     size.add_argument("record")
     size.add_argument("--chart", default="example",
-                      help="a chart file (.json, or .csv with size,point,min_mm,max_mm) or 'example' (ANSUR II-derived)")
+                      help="a chart file (.json, or .csv with size,point,min_mm,max_mm), or 'example' (knee-high) or "
+                           "'example-ag' (thigh-high), both ANSUR II-derived")
     size.add_argument("--json", action="store_true", help="print the decision with every size's checks as JSON")
     size.set_defaults(func=_cmd_size)
     return parser

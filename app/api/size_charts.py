@@ -69,7 +69,8 @@ async def register_chart(request: Request, response: Response, session: Session 
 
 
 @router.get("/size-charts", response_model=list[SizeChartOut],
-            summary="Your clinic's size charts, after the shipped example (ANSUR II-derived, labelled as an example)")
+            summary="Your clinic's size charts, after the shipped examples (ANSUR II-derived knee-high and thigh-high, "
+                    "labelled as examples)")
 def list_charts(session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
     return SizeChartService(session, principal.tenant_id).listing()
 
@@ -85,6 +86,8 @@ def get_chart(chart_id: str, session: Session = Depends(get_session), principal:
             summary="Which sizes of a chart fit the leg at every point, the best one, or made to measure with each "
                     "point outside its range and by how much",
             responses=problems(s404="record_not_found, size_chart_not_found"))
-def decide_size(record_id: str, chart: str = Query(..., description="a size chart id (example-ansur2-ad: the example)"),
+def decide_size(record_id: str,
+                chart: str = Query(..., description="a size chart id (example-ansur2-ad, example-ansur2-ag: the knee-high "
+                                   "and thigh-high examples)"),
                 session: Session = Depends(get_session), principal: Principal = Depends(authorize("read"))):
     return SizeChartService(session, principal.tenant_id).decide(record_id, chart)

@@ -22,7 +22,7 @@ from app.geometry.measures.surface_girths import girths
 from app.records.codec import CalfRecord
 from app.services.designs import DesignService, fabric_text
 from app.services.records import record_chart
-from app.services.size_charts import EXAMPLE_CHART_ID, SizeChartService
+from app.services.size_charts import SizeChartService, example_chart_id
 
 ORDER_FORMAT = "calf-nurbs order 1"
 #: samples of the leg diagram's outline from B to D (and to G of a thigh-high)
@@ -119,8 +119,10 @@ class OrderService:
 
     def order(self, design_id: str, chart_id: str | None = None) -> dict:
         """The order of a design, its size decision against ``chart_id`` (the shipped
-        example when None: the order always states a decision, and says whose chart)."""
+        example of the design's stocking type when None: the order always states a
+        decision, and says whose chart)."""
         design = self.designs.get(design_id)
         row = design.record
-        decision = self.charts.decide_for(row, chart_id or EXAMPLE_CHART_ID)
+        stocking_type = (design.result or {}).get("stocking_type", "AD")
+        decision = self.charts.decide_for(row, chart_id or example_chart_id(stocking_type))
         return order_document(design, row, CalfRecord.from_dict(row.body), decision, utcnow())

@@ -18,16 +18,24 @@ from app.geometry.errors import FitFailure
 from app.geometry.garment.size_charts import SizeChart, record_chart_measures, size_chart_as_dict, size_chart_from_dict, size_decision
 from app.services.records import RecordService
 
-#: the shipped example (benchmarks/size_chart_example.py), under a fixed id every tenant sees
+#: the shipped examples (benchmarks/size_chart_example.py), under fixed ids every tenant
+#: sees: knee-high (AD) and thigh-high (AG)
 EXAMPLE_CHART_ID = "example-ansur2-ad"
+EXAMPLE_AG_CHART_ID = "example-ansur2-ag"
+EXAMPLE_CHARTS = {EXAMPLE_CHART_ID: "example_ansur2_ad.json", EXAMPLE_AG_CHART_ID: "example_ansur2_ag.json"}
 #: most bytes a chart upload may have (60 sizes x 16 points fit in a few kB)
 MAX_CHART_BYTES = 64 * 1024
 
 
 @cache
-def example_chart() -> SizeChart:
-    text = resources.files("app.data").joinpath("size_charts/example_ansur2_ad.json").read_text()
+def example_chart(chart_id: str = EXAMPLE_CHART_ID) -> SizeChart:
+    text = resources.files("app.data").joinpath(f"size_charts/{EXAMPLE_CHARTS[chart_id]}").read_text()
     return size_chart_from_dict(json.loads(text))
+
+
+def example_chart_id(stocking_type: str) -> str:
+    """The shipped example for a stocking type (AD knee-high, AG thigh-high)."""
+    return EXAMPLE_AG_CHART_ID if stocking_type == "AG" else EXAMPLE_CHART_ID
 
 
 def chart_view(chart_id: str, chart: SizeChart, example: bool) -> dict:
@@ -53,15 +61,15 @@ class SizeChartService:
 
     def get(self, chart_id: str) -> tuple[SizeChart, bool]:
         """(chart, is the shipped example)."""
-        if chart_id == EXAMPLE_CHART_ID:
-            return example_chart(), True
+        if chart_id in EXAMPLE_CHARTS:
+            return example_chart(chart_id), True
         row = self.charts.get(chart_id)
         if row is None:
             raise NotFound(f"no size chart {chart_id!r}", code="size_chart_not_found")
         return size_chart_from_dict(row.body), False
 
     def listing(self) -> list[dict]:
-        return [chart_view(EXAMPLE_CHART_ID, example_chart(), True)] + [
+        return [chart_view(chart_id, example_chart(chart_id), True) for chart_id in EXAMPLE_CHARTS] + [
             chart_view(row.id, size_chart_from_dict(row.body), False) for row in self.charts.all()]
 
     def decide(self, record_id: str, chart_id: str) -> dict:

@@ -20,6 +20,7 @@ def test_the_example_chart_a_registered_chart_and_a_records_decision(service_cli
     client = service_client()
     charts = client.get("/api/v1/size-charts").json()
     assert charts[0]["id"] == "example-ansur2-ad" and charts[0]["example"] and "EXAMPLE" in charts[0]["product"]
+    assert charts[1]["id"] == "example-ansur2-ag" and charts[1]["example"] and charts[1]["type"] == "AG"
     made = client.post("/api/v1/size-charts", content=CSV, headers={"Content-Type": "text/csv"})
     assert made.status_code == 201, made.text
     chart = made.json()
