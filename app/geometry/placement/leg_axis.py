@@ -87,6 +87,23 @@ class CalfAxis:
     half_spaces: tuple
 
 
+@dataclass(frozen=True)
+class AxisProfile:
+    """One reading of a leg along an axis: ``centre`` (3,) scan mm the points are taken
+    about, ``local`` (n, 3) the points in the axis's basis (z along it), mm; the coarse
+    profile ``heights`` (k,) mm, ``girth`` (k,) mm and its ``sections``; ``feats`` the
+    B, C, D found on it; ``axis`` (3,) unit and ``basis`` (3, 3) rows x, y, z."""
+
+    centre: np.ndarray
+    local: np.ndarray
+    heights: np.ndarray
+    girth: np.ndarray
+    sections: PolarSections
+    feats: FeatureHeights
+    axis: np.ndarray
+    basis: np.ndarray
+
+
 def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, float] | None = None,
              cut_end: int = 0):
     """Coarse circumference profile along z (36 rays), for finding B, C, D.
@@ -235,9 +252,9 @@ def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
     return 1 if (half_spaces[0][0] - centre) @ axis > 0 else -1
 
 
-def _orient(points, faces, axis, basis, up, half_spaces=()):
-    """B, C, D along ``axis`` (and the axis possibly reversed): local points, heights,
-    girths, sections, features, axis, basis.  ``half_spaces``: a bent knee's cut."""
+def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
+    """B, C, D along ``axis`` (and the axis possibly reversed).  ``half_spaces``: a bent
+    knee's cut."""
     centre = points.mean(axis=0)
     local = (points - centre) @ basis.T
     heights, girth, sections = _profile(local, faces, cut_end=_cut_end(half_spaces, centre, axis))
@@ -250,7 +267,7 @@ def _orient(points, faces, axis, basis, up, half_spaces=()):
             basis = cf.perpendicular_basis(axis, basis[1])
             local = (points - centre) @ basis.T
             heights, girth, sections = _mirror(heights, girth, sections)
-    return centre, local, heights, girth, sections, feats, axis, basis
+    return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
 def _first_axis(samples, weights, shape_axes, up):
@@ -315,12 +332,13 @@ def _height_on(new_axis: np.ndarray, basis: np.ndarray, heights: np.ndarray, sec
     return float(point @ new_axis)
 
 
-def _refine(oriented, points, faces, samples, weights, half_spaces):
+def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces) -> AxisProfile:
     """The calf's long axis (:func:`_section_centre_line`; the paper's section 2.1
     uses PCA of the calf between B and D), the landmarks found again along it, at most
     :data:`MAX_AXIS_ITERATIONS` times or until the axis moves less than
     :data:`AXIS_TOLERANCE_DEG`.  ``oriented``: what :func:`_orient` found."""
-    centre, local, heights, girth, sections, feats, axis, basis = oriented
+    centre, local, heights, girth = oriented.centre, oriented.local, oriented.heights, oriented.girth
+    sections, feats, axis, basis = oriented.sections, oriented.feats, oriented.axis, oriented.basis
     for _ in range(MAX_AXIS_ITERATIONS):
         line = _section_centre_line(heights, girth, sections, feats.b_mm, feats.d_mm)
         if line is None:
@@ -351,7 +369,7 @@ def _refine(oriented, points, faces, samples, weights, half_spaces):
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
         feats = find_feature_heights(heights, girth, hint, sections.elongations())
-    return centre, local, heights, girth, sections, feats, axis, basis
+    return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
 def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None) -> CalfAxis:
@@ -386,8 +404,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
     try:
         # a bent leg's first axis is the body's: its landmarks may be found, and then not
         # found again along the calf's own axis - that too sends the leg to its runs
-        centre, local, heights, girth, sections, feats, axis, basis = _refine(
-            _orient(points, faces, axis, basis, up), points, faces, samples, weights, ())
+        placed = _refine(_orient(points, faces, axis, basis, up), points, faces, samples, weights, ())
     except FitFailure as straight_failure:
         run_failures = [straight_failure]
         for run in shank_runs(samples, weights, axis):
@@ -396,12 +413,11 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             kept = keep_index(samples, run.half_spaces)
             run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
             try:
-                oriented = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
-                                   run_points, run_faces, run_samples, run_weights, run.half_spaces)
+                placed = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
+                                 run_points, run_faces, run_samples, run_weights, run.half_spaces)
             except FitFailure as failure:
                 run_failures.append(failure)
                 continue
-            centre, local, heights, girth, sections, feats, axis, basis = oriented
             points, faces, half_spaces = run_points, run_faces, run.half_spaces
             break
         else:
@@ -411,6 +427,8 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             # calf, upside down, finds no ankle above it.  Ties: the straight axis's.
             raise max(run_failures, key=failure_stage)
 
+    centre, local, heights, sections = placed.centre, placed.local, placed.heights, placed.sections
+    feats, axis, basis = placed.feats, placed.axis, placed.basis
     # anterior: the foot when there is one, else opposite the calf bulge
     calf_rows = (heights >= feats.b_mm) & (heights <= feats.d_mm) & sections.valid
     if calf_rows.sum() < 10:
