@@ -182,6 +182,24 @@ class FeatureHeights:
     d_at_scan_edge: bool = False
 
 
+@dataclass(frozen=True)
+class GirthProfile:
+    """A circumference profile as the landmark search reads it: ``heights`` (k,)
+    ascending, evenly ``spacing`` mm apart; ``raw`` (k,) girths (NaN where missing) and
+    ``smooth`` (k,) the smoothed ones, mm; ``measured`` (k,) bool; ``local_min`` (k,) bool
+    the local minima of ``smooth``; ``bottom`` and ``top`` the first and last measured
+    heights, mm."""
+
+    heights: np.ndarray
+    raw: np.ndarray
+    smooth: np.ndarray
+    measured: np.ndarray
+    local_min: np.ndarray
+    bottom: float
+    top: float
+    spacing: float
+
+
 def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PROFILE_SMOOTHING_MM) -> np.ndarray:
     """Gaussian-smoothed girth profile; NaN sections are bridged linearly first.
 
@@ -232,13 +250,16 @@ def _calf_candidates(heights: np.ndarray, g: np.ndarray) -> tuple[np.ndarray, np
     return peaks, shoulders
 
 
-def _check_candidate(heights, g, raw, ok, local_min, ic, bottom, top, spacing) -> FeatureHeights | FitFailure:
-    """B and D around a calf candidate at index ``ic``, or the reason there are none.
+def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailure:
+    """B and D around a calf candidate at index ``ic`` of the profile, or the reason
+    there are none.
 
     B is the lowest local minimum of the girth 100-350 mm below C, D the lowest local
     minimum 30-250 mm above C (or, when the girth only levels off, the bottom of that
-    window); ``local_min`` (k,) bool marks the local minima of ``g``.
+    window).
     """
+    heights, g, raw, ok, local_min = profile.heights, profile.smooth, profile.raw, profile.measured, profile.local_min
+    bottom, top, spacing = profile.bottom, profile.top, profile.spacing
     zc = heights[ic]
     below = (heights >= zc - ANKLE_BELOW_CALF_MM[1]) & (heights <= zc - ANKLE_BELOW_CALF_MM[0]) & ok
     if not below.any():
@@ -388,6 +409,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             shoulders = shoulders[heights[shoulders] >= heights[near_shoulders].min()] if near_shoulders.size else near_shoulders
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
+    profile = GirthProfile(heights, girth, g, ok, local_min, float(bottom), float(top), spacing)
     if peaks.size == 0 and shoulders.size == 0:
         # no bulge inside the scan: when the girth is largest at one end, the scan stops
         # inside the calf (the up end: the knee waist is missing; the down end: the ankle)
@@ -407,7 +429,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as "
                                              "long as it is wide: a foot, not a calf").detail, float(g[ic]))
             else:
-                outcome = _check_candidate(heights, g, girth, ok, local_min, ic, bottom, top, spacing)
+                outcome = _check_candidate(profile, int(ic))
             if isinstance(outcome, FitFailure):
                 # among ankles missing, the lowest bulge (the calf is the first bulge above
                 # the ankle); otherwise the largest
