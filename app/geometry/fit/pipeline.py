@@ -204,9 +204,7 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
     placed = time.perf_counter()
     where = leg.placement
     local = where.frame.to_calf(leg.points)
-    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, frame=where.frame, side=where.side,
-                      n_scan_points=len(scan.points_mm), d_at_window_edge=where.d_at_window_edge,
-                      edges=(where.b_at_scan_edge, where.d_at_scan_edge), placement=where)
+    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where, n_scan_points=len(scan.points_mm))
     result.timings["calf_frame"] = placed - started
     if where.anterior_cue == "foot":
         # the foot is in the scan (it told front from back): the lowest point of the heel
@@ -231,18 +229,16 @@ def fit_calf(
     d_mm: float,
     options: FitOptions | None = None,
     *,
-    frame: cf.CalfFrame | None = None,
-    side: str | None = None,
-    n_scan_points: int | None = None,
-    d_at_window_edge: bool = False,
-    edges: tuple[bool, bool] = (False, False),
     placement: LegPlacement | None = None,
+    n_scan_points: int | None = None,
 ) -> FitResult:
     """Sections 2.1-2.6 on a scan already in the calf frame, B at z = 0.
 
     local (n, 3) calf-frame mm; faces (f, 3) or None; ``c_mm`` and ``d_mm`` the calf
     maximum and the minimum below the knee (B1 is found here, from the resampled
-    profile).  ``frame`` defaults to the identity placement.
+    profile).  ``placement``: where the leg was found (its frame, side and edge flags);
+    without one, the identity frame, no side, no edges.  ``n_scan_points``: the whole
+    scan's points (default: ``len(local)``).
     """
     options = options or FitOptions()
     options.validate()
@@ -255,8 +251,12 @@ def fit_calf(
         timings[stage] = now - clock
         clock = now
 
-    if frame is None:
-        frame = cf.CalfFrame(np.eye(3), np.zeros(3), 1.0, "given")
+    if placement is not None:
+        frame, side, d_at_window_edge = placement.frame, placement.side, placement.d_at_window_edge
+        edges = (placement.b_at_scan_edge, placement.d_at_scan_edge)
+    else:
+        frame, side, d_at_window_edge = cf.CalfFrame(np.eye(3), np.zeros(3), 1.0, "given"), None, False
+        edges = (False, False)
     b_mm = 0.0
     scan_faces = faces  # the landmarks' tape bands reach a few mm past B and D
     if faces is not None:  # only the triangles reaching the calf
