@@ -15,7 +15,12 @@ checked and fitted as an upload is.  Per leg and landmark the benchmark reports 
 - its height along the leg's own axis from the generating leg's ankle minimum (the
   record's frame mapped back to the generating coordinates, so B's height is
   comparable too),
-- and the volume between B and D of the record's surface (% of the mean).
+- and the volume between B and D of the record's surface (% of the mean),
+- and what a clinic's comparison of two of these records reports as the volume change
+  (``GET /records/{a}/compare/{b}?align=B``: b aligned on a at B, over a's B to D;
+  :func:`app.geometry.measures.compare.compare_surfaces`) - every re-scan against the
+  leg's first, the largest |change| per leg.  An unchanged leg re-scanned should show
+  no change; this is the number a lymphoedema clinic watches over time.
 
 Targets (issue 20): every re-scan fits; girth range p95 <= 1.0 mm at B, C, D; height
 range p95 <= 8 mm at B1 and D; volume range p95 <= 0.5%.
@@ -34,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
+from app.geometry.measures.compare import compare_surfaces  # noqa: E402
 from app.geometry.measures.volume import volume_between  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
@@ -46,7 +52,9 @@ RESCAN_KINDS = ("mesh_clean", "noise", "holes", "cloud", "cloud_noise", "cloud_h
 LANDMARKS = ("B", "B1", "C", "D")
 
 
-def rescan(spec: CaseSpec) -> dict:
+def rescan(spec: CaseSpec, surfaces: list | None = None) -> dict:
+    """One re-scan checked and fitted; its record's numbers (and, into ``surfaces``, its
+    surface and landmarks, for the comparisons)."""
     case = build_case(spec)
     out = {"case": spec.case_id, "kind": spec.kind, "cloud": case.is_cloud}
     try:
@@ -60,6 +68,8 @@ def rescan(spec: CaseSpec) -> dict:
     to_gen = np.linalg.inv(case.to_scan) @ np.asarray(record["frame"])
     b_shift = float((to_gen[:3, 3] - case.truth.points_mm["B"]) @ case.truth.axis)
     marks = record["landmarks"]
+    if surfaces is not None:
+        surfaces.append((fit.surface, marks))
     out.update(outcome="fit",
                girth_mm={n: marks[n].get("tape_girth_mm", marks[n]["circumference_mm"]) for n in LANDMARKS},
                height_mm={n: b_shift + marks[n]["height_mm"] for n in LANDMARKS},
@@ -77,7 +87,8 @@ def main(legs: int = 16, rescans: int = 4, seed: int = 7) -> dict:
     for leg in range(legs):
         subject, leg_seed = int(rng.integers(n_subjects)), int(rng.integers(2**31))
         kinds = rng.choice(RESCAN_KINDS, size=rescans, replace=False)
-        scans = [rescan(CaseSpec(f"leg{leg:02d}-{k}-{r}", str(k), int(rng.integers(2**31)), subject, leg_seed))
+        surfaces: list = []
+        scans = [rescan(CaseSpec(f"leg{leg:02d}-{k}-{r}", str(k), int(rng.integers(2**31)), subject, leg_seed), surfaces)
                  for r, k in enumerate(kinds)]
         fitted = [s for s in scans if s["outcome"] == "fit"]
         row = {"leg": leg, "subject_index": subject, "scans": scans, "fitted": len(fitted)}
@@ -86,6 +97,9 @@ def main(legs: int = 16, rescans: int = 4, seed: int = 7) -> dict:
             row["height_range_mm"] = {n: float(np.ptp([s["height_mm"][n] for s in fitted])) for n in LANDMARKS}
             volumes = np.array([s["volume_ml"] for s in fitted])
             row["volume_range_percent"] = float(100 * np.ptp(volumes) / volumes.mean())
+            (first, first_marks), others = surfaces[0], surfaces[1:]
+            row["compared_volume_change_percent"] = float(max(
+                abs(compare_surfaces(first, first_marks, other, marks, align="B").volume_change_percent) for other, marks in others))
         per_leg.append(row)
         print(f"leg {leg}: {len(fitted)}/{rescans} fitted", {k: round(v, 1) for k, v in row.get("height_range_mm", {}).items()},
               flush=True)
@@ -111,6 +125,7 @@ def summarize(per_leg: list[dict], rescans: int) -> dict:
         "girth_range_mm": {n: _stats([r["girth_range_mm"][n] for r in ranged]) for n in LANDMARKS},
         "height_range_mm": {n: _stats([r["height_range_mm"][n] for r in ranged]) for n in LANDMARKS},
         "volume_range_percent": _stats([r["volume_range_percent"] for r in ranged]),
+        "compared_volume_change_percent": _stats([r["compared_volume_change_percent"] for r in ranged]),
         "b1_share_of_b_to_c": _stats(shares) | {"min": float(min(shares)) if shares else None},
     }
 
@@ -130,7 +145,10 @@ def report(result: dict) -> str:
         lines.append(f"| {n} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | {h['p50']:.1f} | {h['p95']:.1f} | {h['max']:.1f} |")
     v = s["volume_range_percent"]
     b1 = s["b1_share_of_b_to_c"]
+    c = s["compared_volume_change_percent"]
     lines += ["", f"Volume B-D range: p50 {v['p50']:.2f}%, p95 {v['p95']:.2f}%, max {v['max']:.2f}%.", "",
+              "Volume change a comparison of two re-scans reports (aligned at B, over the first scan's B to D; the "
+              f"largest |change| per leg): p50 {c['p50']:.2f}%, p95 {c['p95']:.2f}%, max {c['max']:.2f}%.", "",
               f"B1's place between B and C (share of the way): p50 {b1['p50']:.2f}, min {b1['min']:.2f}, max {b1['max']:.2f}.", "",
               "Targets: every re-scan fits; girth p95 <= 1.0 mm at B, C, D; height p95 <= 8 mm at B1 and D; "
               "volume p95 <= 0.5%."]
