@@ -113,8 +113,8 @@ def report(result: dict) -> str:
     designed = [r for r in every if r["outcome"] == "design"]
     with_g = {r["scan"][:5] for r in result["rows"] if r["outcome"] == "design"}
     lines += ["", f"- generated legs whose scans reach the gluteal fold (G found, so AG can be designed): {len(with_g)} / "
-              f"{result['legs']}; the others' MakeHuman legs end at the hip below the buttock's rearmost point, and an AG "
-              "design is refused for them saying so, as it must be for any scan without G",
+              f"{result['legs']}; on the others the back of the thigh is rearmost at the scan's top (no buttock in the "
+              "scan: app.geometry.anatomy.thigh finds no fold), and an AG design is refused saying so",
               f"- designed: {len(designed)} / {len(every)}; class at B: {sum(r['class_at_B'] for r in designed)}; "
               f"graded to G: {sum(r['graded_to_G'] for r in designed)}; Laplace within {LAPLACE_RTOL:.0%}: "
               f"{sum(r['laplace_worst_share'] <= LAPLACE_RTOL for r in designed)}",
