@@ -27,13 +27,14 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import trimesh  # noqa: E402
 from scipy.interpolate import BSpline  # noqa: E402
-from scipy.spatial import cKDTree  # noqa: E402
+from scipy.spatial import ConvexHull, cKDTree  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from app.geometry.fit.pipeline import FitOptions, fit_scan  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.geometry.sections.polar import ray_angles, star_hull_perimeters  # noqa: E402
 from app.geometry.spline.distance import algorithm1_distances, dense_grid, newton_distances, refine_seeds  # noqa: E402
 from app.geometry.spline.nurbs import evaluate_grid  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
@@ -153,6 +154,16 @@ def speed_rows() -> dict:
 
     t_scipy = median_time(scipy_grid, repeat=200)
 
+    # tape (convex hull) perimeters of a thigh's worth of sections: ours, all at once,
+    # against scipy's ConvexHull one section at a time (app.geometry.sections.polar)
+    hull_angles = ray_angles(360)
+    ring_rng = np.random.default_rng(5)
+    hull_radii = (80.0 + 6.0 * np.sin(3 * hull_angles + ring_rng.uniform(0, 6, (300, 1)))
+                  + 4.0 * np.sin(7 * hull_angles) + ring_rng.normal(0.0, 0.3, (300, 360)))
+    t_hull = median_time(lambda: star_hull_perimeters(hull_radii, hull_angles))
+    t_qhull = median_time(lambda: [ConvexHull(np.column_stack([r * np.cos(hull_angles), r * np.sin(hull_angles)])).area
+                                   for r in hull_radii])
+
     # exact error over 50k points sampled on the scanned calf
     scan = load_scan(DATA / "bodyparts3d_right_leg.stl")
     fit = fit_scan(scan)
@@ -190,6 +201,8 @@ def speed_rows() -> dict:
         "cloud_fit_stages": dict(cloud_result.timings),
         "grid_eval_ms": t_eval * 1e3,
         "scipy_grid_eval_ms": t_scipy * 1e3,
+        "hull_300_ms": t_hull * 1e3,
+        "qhull_300_ms": t_qhull * 1e3,
         "exact_50k_s": t_exact,
         "alg1_50k_s": t_alg1,
         "n_points": int(len(samples)),
@@ -222,6 +235,9 @@ def write_markdown(rows: list[dict], speed: dict) -> str:
         "< 300 ms |",
         f"| evaluate the surface on a 200 x 72 grid | {speed['grid_eval_ms']:.3f} ms | scipy BSpline, u then v: "
         f"{speed['scipy_grid_eval_ms']:.3f} ms | {speed['grid_eval_ms'] / speed['scipy_grid_eval_ms']:.2f}x | < 1 ms |",
+        f"| tape (convex hull) perimeters of 300 sections x 360 rays, all at once | {speed['hull_300_ms']:.1f} ms | "
+        f"scipy ConvexHull per section: {speed['qhull_300_ms']:.1f} ms | {speed['hull_300_ms'] / speed['qhull_300_ms']:.2f}x | "
+        "< 1x (else ConvexHull) |",
         f"| exact (Newton) error of {speed['n_points']:,} points, incl. seeding grid + k-d tree | "
         f"{speed['exact_50k_s'] * 1e3:.0f} ms | paper's Algorithm 1 on the same points: {speed['alg1_50k_s'] * 1e3:.0f} ms | "
         f"{speed['exact_50k_s'] / speed['alg1_50k_s']:.2f}x | < 250 ms |",

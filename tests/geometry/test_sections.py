@@ -2,9 +2,11 @@
 
 import numpy as np
 import pytest
+from scipy.spatial import ConvexHull
 
 from app.geometry.sections import polygon_perimeter, ray_angles, slice_mesh_polar, tape_band_girths, tape_girths
 from app.geometry.sections.cloud import slice_points_polar
+from app.geometry.sections.polar import star_hull_perimeters
 from tests.phantoms import cylinder, tube_mesh
 
 
@@ -94,3 +96,18 @@ def test_a_tape_band_outvotes_one_spoiled_plane():
     assert np.isnan(tape_band_girths(leg.vertices, leg.faces, np.array([301.0]))[0])
     assert tape_band_girths(leg.vertices, leg.faces, np.array([299.0]))[0] == pytest.approx(
         tape_girths(leg.vertices, leg.faces, np.array([299.0]))[0], rel=1e-9)
+
+
+def test_star_hull_perimeters_are_scipys_convex_hulls():
+    """Bumpy, dented and noisy star-shaped contours on 36-360 rays: the perimeter of
+    each one's convex hull, as scipy's ConvexHull (its 2-D area) gives it."""
+    rng = np.random.default_rng(3)
+    for n_rays in (36, 72, 360):
+        angles = ray_angles(n_rays)
+        radii = 40 + 3 * np.sin(3 * angles + rng.uniform(0, 6, (60, 1))) + rng.normal(0, 0.6, (60, n_rays))
+        radii[:20] += 8 * np.exp(-(((angles - 1.0) / 0.1) ** 2))  # a sharp bump the hull spans
+        radii[20:40] -= 8 * np.exp(-(((angles - 2.0) / 0.2) ** 2))  # a hollow it bridges
+        expected = [ConvexHull(np.column_stack([r * np.cos(angles), r * np.sin(angles)])).area for r in radii]
+        assert np.allclose(star_hull_perimeters(radii, angles), expected, rtol=0, atol=1e-9)
+    circle = star_hull_perimeters(np.full((1, 360), 50.0), ray_angles(360))[0]
+    assert circle == pytest.approx(2 * 360 * 50 * np.sin(np.pi / 360), abs=1e-9)  # a 360-gon
