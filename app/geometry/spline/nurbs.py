@@ -1,7 +1,8 @@
 """B-spline/NURBS machinery (paper sections 2.4-2.5; Piegl & Tiller, *The NURBS Book*).
 
-The basis functions are scipy's (:mod:`app.geometry.spline.basis`): evaluation on
-grids through their sparse design matrices, derivatives at scattered points through
+The basis functions are scipy's (:mod:`app.geometry.spline.basis` checks their
+contract): evaluation on grids through ``scipy.interpolate.BSpline``, one direction at
+a time, derivatives at scattered points through
 ``scipy.interpolate.NdBSpline``, interpolation through ``make_interp_spline``.
 
 Representation (the standard open one every NURBS library reads)
@@ -20,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import NdBSpline, make_interp_spline
+from scipy.interpolate import BSpline, NdBSpline, make_interp_spline
 
 from app.geometry.spline.basis import BSplineBasis
 
@@ -102,16 +103,19 @@ class NurbsSurface:
 def evaluate_grid(surface: NurbsSurface, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Surface points on the tensor grid ``u x v`` (eq. 1 of the paper).
 
-    u (a,), v (b,) inside the domain; returns (a, b, 3) mm.  The two bases' sparse
-    design matrices (scipy) contract the homogeneous net one direction at a time.
+    u (a,), v (b,) inside the domain; returns (a, b, 3) mm.  scipy's ``BSpline``
+    contracts the homogeneous net one direction at a time (u, then v), on the bases the
+    surface checked on construction.
     """
     nu, nv = surface.shape
-    bu = surface.basis_u.design_matrix(u)
-    bv = surface.basis_v.design_matrix(v).toarray()
-    pw = surface.homogeneous()
-    rows = (bu @ pw.reshape(nu, nv * 4)).reshape(len(u), nv, 4)
-    grid = np.einsum("avc,bv->abc", rows, bv, optimize=True)
-    return grid[..., :3] / grid[..., 3:]
+    polynomial = surface.is_polynomial()  # all weights 1: the net itself, no division
+    net = surface.control_points if polynomial else surface.homogeneous()
+    channels = net.shape[-1]
+    rows = BSpline(surface.knots_u, net.reshape(nu, nv * channels), surface.degree_u)(np.asarray(u, dtype=np.float64))
+    grid = BSpline(surface.knots_v, np.transpose(rows.reshape(len(u), nv, channels), (1, 0, 2)), surface.degree_v)(
+        np.asarray(v, dtype=np.float64))  # (b, a, channels)
+    grid = np.transpose(grid, (1, 0, 2))
+    return grid if polynomial else grid[..., :3] / grid[..., 3:]
 
 
 #: working memory of one chunk of :func:`evaluate_derivatives` (bytes)
