@@ -89,8 +89,9 @@ def main() -> None:
     port = free_port()
     data_dir = Path(tempfile.mkdtemp(prefix="calf-bench-"))
     # the benchmark measures speed, not the fair-share limits: one clinic (no keys) sends
-    # every upload, so its upload rate and queued-jobs caps are lifted for the run
-    env = {**os.environ, "CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "2", "CALF_UPLOAD_RATE_LIMIT": "0",
+    # every upload and polls its jobs, so its request and upload rates and its queued-jobs cap
+    # are lifted for the run
+    env = {**os.environ, "CALF_DATA_DIR": str(data_dir), "CALF_WORKERS": "2", "CALF_RATE_LIMIT": "0", "CALF_UPLOAD_RATE_LIMIT": "0",
            "CALF_TENANT_MAX_JOBS": "1000"}
     server = subprocess.Popen(
         [str(Path(sys.executable).parent / "calf-nurbs"), "serve", "--host", "127.0.0.1", "--port", str(port)],
