@@ -6,9 +6,6 @@ status, headers, media type and body as documented.
 Bounded: CALF_SCHEMATHESIS_EXAMPLES cases per operation (default 20), derandomized so a
 run is repeatable.  The stateful phase chains calls along the links Schemathesis infers
 from the document (a record's id from an import or a population into its measurements,
-
-#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
-pytestmark = pytest.mark.slow
 designs, surface, deletion...): CALF_SCHEMATHESIS_SEQUENCES sequences (default 15).  Path ids are, for half of the cases, those of a real record, design
 and job of the key's clinic, so that the success responses are checked too, not only
 the 404s of random ids.
@@ -28,6 +25,9 @@ from hypothesis import HealthCheck, settings  # noqa: E402
 from app.services.uploads import MEDIA_TYPES  # noqa: E402
 from benchmarks.served import served_with_key  # noqa: E402
 from tests.api.test_processes import fit_one  # noqa: E402
+
+#: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLES = int(os.environ.get("CALF_SCHEMATHESIS_EXAMPLES", "20"))
