@@ -263,14 +263,13 @@ def _cmd_size(args: argparse.Namespace) -> int:
     from dataclasses import asdict
 
     from app.geometry.garment.size_charts import record_chart_measures, size_chart_dict_from_csv, size_chart_from_dict, size_decision
-    from app.services.size_charts import EXAMPLE_AG_CHART_ID, example_chart
+    from app.services.size_charts import EXAMPLE_AG_CHART_ID, EXAMPLE_CHART_ID, example_chart
 
+    examples = {"example": EXAMPLE_CHART_ID, "example-ag": EXAMPLE_AG_CHART_ID}
     try:
         record = _load_record(args.record)
-        if args.chart == "example":
-            chart = example_chart()
-        elif args.chart == "example-ag":
-            chart = example_chart(EXAMPLE_AG_CHART_ID)
+        if args.chart in examples:
+            chart = example_chart(examples[args.chart])
         else:
             text = Path(args.chart).read_text()
             chart = size_chart_from_dict(size_chart_dict_from_csv(text) if args.chart.lower().endswith(".csv") else json.loads(text))

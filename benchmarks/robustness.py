@@ -78,12 +78,13 @@ def main() -> None:
     for file, side, (b, c, d) in REAL:
         scan = load_scan(ROOT / "tests" / "data" / "real" / file)
         started = time.perf_counter()
-        fit = fit_scan(scan, FitOptions(side=side), placement=check_scan(scan, FitOptions(side=side)))
+        placement = check_scan(scan, FitOptions(side=side))
+        fit = fit_scan(scan, FitOptions(side=side), placement=placement)
         seconds = time.perf_counter() - started
         tape = fit.landmarks.tape_girths_mm
         marks = fit.landmarks
         # issue 20: the surface on the skin (paper and lsq 12x24) and B1 35-85% of the way from B to C
-        lsq = fit_scan(scan, FitOptions(side=side, mode="lsq", grid="12x24"), placement=check_scan(scan, FitOptions(side=side)))
+        lsq = fit_scan(scan, FitOptions(side=side, mode="lsq", grid="12x24"), placement=placement)
         real.append({"file": file, "side": side, "seconds": seconds, "tape": tape, "reference": {"B": b, "C": c, "D": d},
                      "b1_share": (marks.B1.height_mm - marks.B.height_mm) / (marks.C.height_mm - marks.B.height_mm),
                      "skin_mm": {"paper": fit.skin.as_dict(), "lsq 12x24": lsq.skin.as_dict()},

@@ -33,7 +33,7 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
-from app.geometry.sections import PolarSections, slice_polar, tape_band_girths
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.spline.distance import SurfaceError, error_statistics
 from app.geometry.spline.lsq import LsqFit, LsqGrid, fit_lsq_surface
@@ -258,10 +258,13 @@ def fit_calf(
         frame, side, d_at_window_edge = cf.CalfFrame(np.eye(3), np.zeros(3), 1.0, "given"), None, False
         edges = (False, False)
     b_mm = 0.0
-    scan_faces = faces  # the landmarks' tape bands reach a few mm past B and D
-    if faces is not None:  # only the triangles reaching the calf
+    band_faces = faces  # the landmarks' tape bands reach TAPE_BAND_OFFSETS_MM past B and D
+    if faces is not None:  # only the triangles reaching the calf (and its landmarks' bands)
         fz = local[:, 2][faces]
-        faces = faces[(fz.max(axis=1) >= b_mm - 2.0) & (fz.min(axis=1) <= d_mm + 2.0)]
+        top, bottom = fz.max(axis=1), fz.min(axis=1)
+        reach = float(np.abs(TAPE_BAND_OFFSETS_MM).max())
+        band_faces = faces[(top >= b_mm - 2.0 - reach) & (bottom <= d_mm + 2.0 + reach)]
+        faces = faces[(top >= b_mm - 2.0) & (bottom <= d_mm + 2.0)]
     else:  # a cloud is sliced three times below: sorted along z once, each sort is then a pass
         local = local[np.argsort(local[:, 2], kind="stable")]
     heights = _section_heights(b_mm, d_mm, options)
@@ -291,7 +294,7 @@ def fit_calf(
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
         raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
     layer_girth = layer_sections.circumferences()
-    tape = tape_band_girths(local, scan_faces, layers_z[[0, 2, 4, 6]])
+    tape = tape_band_girths(local, band_faces, layers_z[[0, 2, 4, 6]])
     if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
         fallback = layer_sections.tape_perimeters()[[0, 2, 4, 6]]
         tape = np.where(np.isfinite(tape), tape, fallback)

@@ -8,10 +8,11 @@ period and the first p control points repeat at the end (the unwrapped form that
 non-periodic NURBS code reads, The NURBS Book section 12.2); otherwise clamped (p + 1
 equal knots at each end: the surface's ends are its first and last control rows).
 
-The basis functions themselves are scipy's (``scipy.interpolate.BSpline.design_matrix``,
-de Boor's recurrence, The NURBS Book A2.2): there is no hand-written basis in the
-project.  Surfaces' derivatives go through ``scipy.interpolate.NdBSpline``
-(:func:`app.geometry.spline.nurbs.evaluate_derivatives`).  Parameters are
+The basis functions themselves are scipy's (de Boor's recurrence, The NURBS Book A2.2):
+:meth:`BSplineBasis.local` gives the lsq collocation its rows from
+``BSpline.design_matrix``; surfaces are evaluated with ``BSpline`` and
+``NdBSpline`` (:mod:`app.geometry.spline.nurbs`).  There is no hand-written basis in the
+project.  Parameters are
 dimensionless; nothing here has units.
 """
 

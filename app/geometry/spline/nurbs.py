@@ -54,8 +54,14 @@ class NurbsSurface:
     periodic_u: bool = True
 
     def __post_init__(self) -> None:
-        basis_u = BSplineBasis(self.knots_u, self.degree_u, self.periodic_u)
-        basis_v = BSplineBasis(self.knots_v, self.degree_v, False)
+        try:
+            basis_u = BSplineBasis(self.knots_u, self.degree_u, self.periodic_u)
+        except ValueError as broken:
+            raise ValueError(f"knots_u: {broken}") from None
+        try:
+            basis_v = BSplineBasis(self.knots_v, self.degree_v, False)
+        except ValueError as broken:
+            raise ValueError(f"knots_v: {broken}") from None
         shape = (basis_u.n_functions, basis_v.n_functions)
         if np.shape(self.control_points) != shape + (3,):
             raise ValueError(f"the knots ask for a {shape[0]} x {shape[1]} x 3 control net, got {np.shape(self.control_points)}")
