@@ -62,6 +62,36 @@ def client(data_dir):
         yield test_client
 
 
+#: the case reference of the session's fitted record (tests/api: fitted_record)
+SHARED_CASE = "CASE-SHARED-1"
+
+
+@pytest.fixture(scope="session")
+def shared_client(tmp_path_factory):
+    """One service for the whole session, holding :func:`fitted_record`: the tests that
+    read a record (its measurements, exports, designs, orders, size decisions) use it
+    rather than each module starting a service and uploading and fitting the same leg.
+    Tests that erase, count or list must not use it (other modules add designs and
+    charts to it)."""
+    with serve(tmp_path_factory.mktemp("calf-shared")) as test_client:
+        yield test_client
+
+
+@pytest.fixture(scope="session")
+def fitted_record(shared_client) -> dict:
+    """The record (its JSON body) of the BodyParts3D right leg (foot to knee, the floor in
+    the scan) uploaded to :func:`shared_client` with case ``SHARED_CASE`` and fitted once
+    per session (paper mode, 8 points a layer)."""
+    from tests.conftest import REAL
+
+    upload = shared_client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(),
+                                params={"case_ref": SHARED_CASE, "points": 8}, headers={"Content-Type": "model/stl"})
+    assert upload.status_code == 202, upload.text
+    job = wait_for_job(shared_client, upload.headers["location"])
+    assert job["status"] == "succeeded", job
+    return shared_client.get(f"/api/v1/records/{job['record_id']}").json()
+
+
 def wait_for_job(client: TestClient, location: str, timeout: float = 120.0) -> dict:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:

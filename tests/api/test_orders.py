@@ -7,21 +7,23 @@ import io
 
 import pytest
 
-from tests.api.conftest import wait_for_job
+from tests.api.conftest import SHARED_CASE, wait_for_job
 from tests.conftest import REAL
 
 pypdf = pytest.importorskip("pypdf", reason="pypdf (the test extra) reads the order PDF back")
 
-CASE = "CASE-ORDER-7"
+CASE = SHARED_CASE
 
 
 @pytest.fixture(scope="module")
-def design(client):
-    upload = client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(),
-                         params={"case_ref": CASE, "points": 8}, headers={"Content-Type": "model/stl"})
-    job = wait_for_job(client, upload.headers["location"])
-    assert job["status"] == "succeeded", job
-    made = client.post(f"/api/v1/records/{job['record_id']}/designs",
+def client(shared_client):
+    """The session's service: the order is of its fitted record (tests/api/conftest.py)."""
+    return shared_client
+
+
+@pytest.fixture(scope="module")
+def design(client, fitted_record):
+    made = client.post(f"/api/v1/records/{fitted_record['id']}/designs",
                        json={"compression_class": "II", "toe": "open", "fabric": {"stiffness_n_per_cm": 10.0}})
     assert made.status_code == 201, made.text
     return made.json()

@@ -3,9 +3,6 @@ size decision."""
 
 from __future__ import annotations
 
-from tests.api.conftest import wait_for_job
-from tests.conftest import REAL
-
 CSV = """# product: Clinic test knee-high
 # type: AD
 size,point,min_mm,max_mm
@@ -16,8 +13,8 @@ M,cC,340,400
 """
 
 
-def test_the_example_chart_a_registered_chart_and_a_records_decision(service_client):
-    client = service_client()
+def test_the_example_chart_a_registered_chart_and_a_records_decision(shared_client, fitted_record):
+    client = shared_client
     charts = client.get("/api/v1/size-charts").json()
     assert charts[0]["id"] == "example-ansur2-ad" and charts[0]["example"] and "EXAMPLE" in charts[0]["product"]
     assert charts[1]["id"] == "example-ansur2-ag" and charts[1]["example"] and charts[1]["type"] == "AG"
@@ -29,10 +26,7 @@ def test_the_example_chart_a_registered_chart_and_a_records_decision(service_cli
     bad = client.post("/api/v1/size-charts", json={"product": "x", "type": "AG", "sizes": [{"name": "S", "ranges": {"cB": [3, 1]}}]})
     assert bad.status_code == 422 and "0 < min < max" in bad.json()["detail"]
 
-    upload = client.post("/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(), params={"points": 8},
-                         headers={"Content-Type": "model/stl"})
-    job = wait_for_job(client, upload.headers["location"])
-    record = client.get(f"/api/v1/records/{job['record_id']}").json()
+    record = fitted_record
     tape_b = record["landmarks"]["B"]["tape_girth_mm"]
     decision = client.get(f"/api/v1/records/{record['id']}/size-decision", params={"chart": chart["id"]}).json()
     assert decision["measures_mm"]["cB"] == tape_b

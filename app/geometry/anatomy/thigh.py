@@ -5,7 +5,7 @@ thigh between them (RAL-GZ 387's cE, cF, cG, a thigh-high AG stocking's points).
 Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's right).
 Arrays: points (n, 3), faces (f, 3) or None.  Girths are tape girths (the convex hull of
 the section, :func:`app.geometry.sections.tape_girths`) in planes perpendicular to the
-leg's axis, every STEP_MM from D.  Heights are along the calf frame's z: on a standing
+leg's axis, every STEP_MM from D across the knee, every PROFILE_STEP_MM on up to G.  Heights are along the calf frame's z: on a standing
 leg the thigh continues the shank's axis within a few degrees (the femur's 5-9 degree
 valgus tilts the plane by as much; a tape reads cos 7 deg = 0.7% more); a bent knee (its
 thigh cut free of the shank by the placement) has no thigh here, and says so.
@@ -170,7 +170,13 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     if top < d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM:
         return _none(f"the scan ends {top - d_mm:.0f} mm above D, below the top of the knee")
     heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
-    girth = tape_girths(points, faces, heights)
+    # girths every STEP_MM only where E is searched (its window and the slope's reach):
+    # above it only F, G and the profile's PROFILE_STEP_MM planes are read, each plane a
+    # section of its own (tape_girths), so the thigh's sections cost a third of reading
+    # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
+    knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
+    girth = np.full(len(heights), np.nan)
+    girth[knee_span] = tape_girths(points, faces, heights[knee_span])
     lag = int(round(SLOPE_HALF_MM / STEP_MM))
     slope = np.full(len(heights), np.nan)
     slope[lag:-lag] = (girth[2 * lag:] - girth[:-2 * lag]) / (2 * SLOPE_HALF_MM)
@@ -193,13 +199,18 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     reason = "the scan stops below the gluteal fold (the top of the thigh)"
     if g is None:
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
-    if not np.isfinite(girth[g]):
+    f = int(round((e + g) / 2))
+    profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
+    planes = np.unique(np.r_[profile_z, heights[f]])
+    planes_girth = tape_girths(points, faces, planes)
+    girth_f, girth_g = (float(planes_girth[np.searchsorted(planes, heights[i])]) for i in (f, g))
+    if not np.isfinite(girth_g):
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
-    f = int(round((e + g) / 2))
-    finite = np.isfinite(girth[: g + 1])
-    profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
-    profile_g = np.interp(profile_z, heights[: g + 1][finite], girth[: g + 1][finite])
-    return ThighMeasures(knee, LevelPoint("F", float(girth[f]), float(heights[f])),
-                         LevelPoint("G", float(girth[g]), float(heights[g])),
+    mid_thigh = (LevelPoint("F", girth_f, float(heights[f])) if np.isfinite(girth_f)
+                 else LevelPoint("F", None, None, "the section at the middle of the thigh is not closed (a hole)"))
+    profile_g = planes_girth[np.searchsorted(planes, profile_z)]
+    finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
+    profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
+    return ThighMeasures(knee, mid_thigh, LevelPoint("G", girth_g, float(heights[g])),
                          tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g))

@@ -44,6 +44,9 @@ MARGIN_MM = 10.0
 #: a sample's nearest skin may lie this far beside it (the 2 mm sampling of a mesh's
 #: triangles, a cloud's spacing) and still count as skin across from it
 TANGENT_SLACK_MM = 2.0
+#: the triangles searched reach this far past MARGIN_MM beyond the calf's ends (mm):
+#: further than any sample that counts stands from its nearest skin
+SEARCH_REACH_MM = 30.0
 #: a surface further than this from skin the scan has is off the skin
 OFF_SKIN_MM = 3.0
 #: ... and warned about when an arc of a ring this large (a share of its samples: 5% is
@@ -138,6 +141,13 @@ def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray
     (f, 3) or None; the scan's skin counts between ``low_mm`` and ``high_mm`` (and
     :data:`MARGIN_MM` beyond)."""
     if faces is not None and len(faces):  # only the vertices of triangles: a hole's vertices are no skin
+        # ... and only the triangles near the calf: a sample's nearest vertices lie within
+        # its distance to the skin, so beyond MARGIN_MM + SEARCH_REACH_MM of the calf's
+        # ends no triangle is one a counted sample (at most MARGIN_MM past the ends, a few
+        # mm off the skin) can reach; a body's other 90% is not searched
+        z = points[:, 2][faces]
+        faces = faces[(z.max(axis=1) >= low_mm - MARGIN_MM - SEARCH_REACH_MM)
+                      & (z.min(axis=1) <= high_mm + MARGIN_MM + SEARCH_REACH_MM)]
         used, inverse = np.unique(faces, return_inverse=True)
         points, faces = points[used], inverse.reshape(faces.shape)
     u0, u1 = surface.domain_u
