@@ -74,7 +74,7 @@ class ChartPoint(BaseModel):
     model_config = ConfigDict(allow_inf_nan=False)
     value_mm: float | None = Field(None, gt=0, le=1000, description="tape girth (cA, cY) or foot length; null: see reason")
     at_mm: list[Annotated[float, Field(ge=-2000, le=2000)]] | None = Field(
-        None, min_length=3, max_length=3, description="where the tape lies (the foot's points), calf frame mm")
+        None, min_length=3, max_length=3, description="where the tape lies (foot) or its section's centre (thigh), calf frame mm")
     height_mm: float | None = Field(None, ge=-2000, le=2000, description="its height (the thigh's points), calf frame mm")
     reason: str | None = Field(None, max_length=500, description="why it is not measured")
 
@@ -196,7 +196,7 @@ class OrderMeasurement(BaseModel):
     needed: bool = Field(description="the stocking type in question asks for it (AG for a record's chart)")
     value_mm: float | None = Field(description="tape girth or length from the floor; null when not measured (see reason)")
     height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
-    at_mm: list[float] | None = Field(None, description="where the tape lies (the foot's points), calf frame mm")
+    at_mm: list[float] | None = Field(None, description="where the tape lies (foot) or its section's centre (thigh), calf frame mm")
     reason: str | None = Field(description="why there is no value")
 
 

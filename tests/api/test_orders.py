@@ -67,6 +67,9 @@ def test_the_order_carries_the_case_the_garment_and_every_point_of_the_form(clie
     assert chart["cG"]["needed_for"] == ["AG"] and chart["cG"]["value_mm"] > chart["cE"]["value_mm"] > 0
     assert chart["lG"]["value_mm"] > chart["lF"]["value_mm"] > chart["lE"]["value_mm"] > chart["lD"]["value_mm"]
     assert chart["cA"]["at_mm"][2] < record["landmarks"]["B"]["height_mm"]  # on the foot, below B
+    for name in ("cE", "cF", "cG"):  # the thigh's tapes: their sections' centres, at their heights, over the leg's axis
+        assert chart[name]["at_mm"][2] == chart[name]["height_mm"] == record["chart"][name]["at_mm"][2]
+        assert abs(chart[name]["at_mm"][0]) < 80 and abs(chart[name]["at_mm"][1]) < 80
     assert not any(w.startswith("not measured from the scan") for w in order["warnings"])
     # the decision and the knitting specification are the ones the API gives on their own
     decision = client.get(f"/api/v1/records/{record['id']}/size-decision", params={"chart": "example-ansur2-ad"}).json()

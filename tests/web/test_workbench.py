@@ -145,7 +145,10 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     page.get_by_role("button", name="Check the sizes").click()
     expect(page.locator("#size-decision")).to_contain_text(re.compile("ready to wear|made to measure"), timeout=30_000)
     page.locator("#record-viewer canvas").wait_for()
-    expect(page.locator("#record-viewer .tag.ring")).to_have_count(4, timeout=30_000)
+    # B, B1, C, D on the surface and, this leg reaching the hip, the thigh's tapes above it
+    expect(page.locator("#record-viewer .tag.ring")).to_have_count(7, timeout=30_000)
+    rings = {t.split()[0] for t in page.locator("#record-viewer .tag.ring").all_inner_texts()}
+    assert rings == {"B", "B1", "C", "D", "cE", "cF", "cG"}
     # the foot's order-form points on the 3D leg, and the form's chart beside it
     expect(page.locator("#record-viewer .tag.point")).to_have_count(3, timeout=30_000)
     assert {t.split()[0] for t in page.locator("#record-viewer .tag.point").all_inner_texts()} == {"cA", "cY", "foot_length"}

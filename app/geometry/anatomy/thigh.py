@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.sections import mesh_section_segments, tape_girths
+from app.geometry.sections import PolarSections, mesh_section_segments, tape_sections
 
 STEP_MM = 2.0
 #: the stored thigh profile's spacing, mm (a knitting specification's usual step)
@@ -63,15 +63,31 @@ THIGH_BACK_ABOVE_E_MM = 100.0
 @dataclass(frozen=True)
 class LevelPoint:
     """A point of the leg at a height: ``girth_mm`` (tape) and ``height_mm`` (calf
-    frame), or None with the ``reason``."""
+    frame), or None with the ``reason``; ``at_mm``: the centre of the tape's section
+    (x, y, height), where its plane crosses the limb (the workbench draws the tape there)."""
 
     name: str
     girth_mm: float | None
     height_mm: float | None
     reason: str | None = None
+    at_mm: tuple[float, float, float] | None = None
 
     def as_dict(self) -> dict:
-        return {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
+        out = {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
+        if self.at_mm is not None:
+            out["at_mm"] = list(self.at_mm)
+        return out
+
+
+def _level(name: str, sections: PolarSections, girths: np.ndarray, index: int) -> LevelPoint:
+    """The point ``name`` read on section ``index`` of ``sections`` (its tape girth, of
+    ``girths`` (k,) the sections' tape perimeters, and its centre), or not closed there."""
+    girth = float(girths[index])
+    height = float(sections.heights_mm[index])
+    if not np.isfinite(girth):
+        return LevelPoint(name, None, None, "the section there is not closed (a hole, or the scan's edge)")
+    centre = sections.centroids_mm[index]
+    return LevelPoint(name, girth, height, at_mm=(float(centre[0]), float(centre[1]), height))
 
 
 @dataclass(frozen=True)
@@ -172,11 +188,12 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
     # girths every STEP_MM only where E is searched (its window and the slope's reach):
     # above it only F, G and the profile's PROFILE_STEP_MM planes are read, each plane a
-    # section of its own (tape_girths), so the thigh's sections cost a third of reading
+    # section of its own (tape_sections), so the thigh's sections cost a third of reading
     # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
     knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
+    knee_sections = tape_sections(points, faces, heights[knee_span])
     girth = np.full(len(heights), np.nan)
-    girth[knee_span] = tape_girths(points, faces, heights[knee_span])
+    girth[knee_span] = knee_sections.tape_perimeters()
     lag = int(round(SLOPE_HALF_MM / STEP_MM))
     slope = np.full(len(heights), np.nan)
     slope[lag:-lag] = (girth[2 * lag:] - girth[:-2 * lag]) / (2 * SLOPE_HALF_MM)
@@ -192,7 +209,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     lo = int(off_level[off_level < least].max(initial=-1)) + 1  # the run's ends round the least slope
     hi = int(off_level[off_level > least].min(initial=len(slope))) - 1
     e = (lo + hi) // 2
-    knee = LevelPoint("E", float(girth[e]), float(heights[e]))
+    knee = _level("E", knee_sections, girth, e)  # knee_span is a prefix of heights, holding E's window
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = _posterior_profile(points, faces, heights)
     g = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
@@ -202,15 +219,14 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     f = int(round((e + g) / 2))
     profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
     planes = np.unique(np.r_[profile_z, heights[f]])
-    planes_girth = tape_girths(points, faces, planes)
-    girth_f, girth_g = (float(planes_girth[np.searchsorted(planes, heights[i])]) for i in (f, g))
-    if not np.isfinite(girth_g):
+    sections = tape_sections(points, faces, planes)
+    planes_girth = sections.tape_perimeters()
+    top_of_thigh = _level("G", sections, planes_girth, int(np.searchsorted(planes, heights[g])))
+    if top_of_thigh.girth_mm is None:
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
-    mid_thigh = (LevelPoint("F", girth_f, float(heights[f])) if np.isfinite(girth_f)
-                 else LevelPoint("F", None, None, "the section at the middle of the thigh is not closed (a hole)"))
+    mid_thigh = _level("F", sections, planes_girth, int(np.searchsorted(planes, heights[f])))
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
     profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
-    return ThighMeasures(knee, mid_thigh, LevelPoint("G", girth_g, float(heights[g])),
-                         tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g))
+    return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g))

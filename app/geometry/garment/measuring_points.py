@@ -77,7 +77,7 @@ class MeasuredPoint:
     height_mm: float | None
     needed: bool
     reason: str | None = None
-    at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's points), calf frame
+    at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's and thigh's points), calf frame
 
 
 #: the record's points off the calf (its ``chart``, version 3): the foot's and the thigh's
@@ -95,7 +95,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
     hull of the section: a tape bridges the concavities, RAL-GZ 387's "Umfang" taken with a
     tape); lengths are heights above the sole plane.  ``foot``: the record's chart
     {foot_length, cA, cY: {value_mm, at_mm, reason}, cE, cF, cG: {value_mm, height_mm,
-    reason}} (None: a record before version 3)."""
+    at_mm (the section's centre; absent in records made before it was kept), reason}}
+    (None: a record before version 3)."""
     if stocking_type not in STOCKING_TYPES:
         raise ValueError(f"stocking type must be one of {', '.join(STOCKING_TYPES)}")
     measured = []
@@ -111,7 +112,9 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
                 continue
             height = level.get("height_mm")
             if point.kind == "circumference":
-                measured.append(MeasuredPoint(point, level.get("value_mm"), height, needed, level.get("reason")))
+                at = level.get("at_mm")
+                measured.append(MeasuredPoint(point, level.get("value_mm"), height, needed, level.get("reason"),
+                                              None if at is None else (float(at[0]), float(at[1]), float(at[2]))))
             elif height is None:
                 measured.append(MeasuredPoint(point, None, None, needed, level.get("reason")))
             elif sole_mm is None:

@@ -16,7 +16,7 @@ from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, polygon_centroid, polygon_perimeter, ray_angles
 
 __all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "mesh_section_segments", "polygon_centroid", "polygon_perimeter", "ray_angles",
-           "slice_mesh_polar", "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths"]
+           "slice_mesh_polar", "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is
 #: read over the planes TAPE_BAND_OFFSETS_MM from it (mm) and the median taken.  At a
@@ -29,22 +29,28 @@ TAPE_BAND_OFFSETS_MM = np.array([-4.0, -2.0, 0.0, 2.0, 4.0])
 
 def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
-    section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm.
+    section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm
+    (:func:`tape_sections`' perimeters); NaN where there is no section."""
+    return tape_sections(points, faces, heights).tape_perimeters()
+
+
+def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> PolarSections:
+    """The sections a tape is read on at ``heights`` (k,), mm: points (n, 3) in the frame
+    whose z the heights are, faces (f, 3) or None; their ``tape_perimeters()`` are the
+    tape girths, their centroids where the tape's plane crosses the limb's axis.
 
     The hull is taken of the robust polar fit of the section on 360 rays
     (:mod:`app.geometry.sections.cloud`): of the slab of points for a cloud, of the exact
     plane-section segment ends for a mesh - so scanner noise on the vertices, which the
     hull of the raw section would pick up at its outermost points, is averaged out.
-    NaN where there is no section.
+    NaN rows where there is no section.
     """
     heights = np.asarray(heights, dtype=np.float64)
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
         ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
-        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
-    else:
-        sections = slice_points_polar(points, heights, 360)
-    return sections.tape_perimeters()
+        return slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
+    return slice_points_polar(points, heights, 360)
 
 
 def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:

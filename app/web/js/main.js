@@ -7,6 +7,8 @@ import { colour, createViewer, legendRamp } from './viewer.js';
 
 const main = document.getElementById('main');
 const LANDMARKS = ['B', 'B1', 'C', 'D'];
+// the order form's thigh points (RAL-GZ 387: middle of the knee, middle and top of the thigh)
+const THIGH_POINTS = ['cE', 'cF', 'cG'];
 const MESH_FORMATS = ['stl', 'glb', 'gltf'];
 const CAD_FORMATS = { step: 'step', iges: 'igs', '3dm': '3dm', geomdl: 'json' };
 
@@ -303,9 +305,21 @@ async function draw3d(record, box, toggles, legend, chart) {
   const positions = grid(S, nU, nV);
   viewer.surface('surface', positions, gridIndex(nU, nV));
   LANDMARKS.forEach((name) => { const m = record.landmarks[name]; if (m) viewer.ring(`ring-${name}`, ring(S, m.height_mm), name); });
-  // the order form's points the scan gave off the calf (the foot's cA, cY, foot length)
-  (chart || []).filter((p) => p.at_mm && p.value_mm != null)
+  // the order form's points the scan gave off the calf: the foot's (cA, cY, foot length) as
+  // markers where the tape lies; the thigh's (cE, cF, cG, above the surface's D) as a tape
+  // ring at its height - the circle of the measured girth about the section's centre (the
+  // record keeps the girth and the centre, not the section's outline)
+  const measured = (chart || []).filter((p) => p.at_mm && p.value_mm != null);
+  measured.filter((p) => !THIGH_POINTS.includes(p.point))
     .forEach((p) => viewer.marker(`point-${p.point}`, p.at_mm, 0xb45309, 4, `${p.point} ${p.value_mm.toFixed(0)}`));
+  measured.filter((p) => THIGH_POINTS.includes(p.point)).forEach((p) => {
+    const radius = p.value_mm / (2 * Math.PI);
+    const circle = Array.from({ length: 96 }, (_, i) => {
+      const a = (2 * Math.PI * i) / 96;
+      return [p.at_mm[0] + radius * Math.cos(a), p.at_mm[1] + radius * Math.sin(a), p.at_mm[2]];
+    });
+    viewer.ring(`point-${p.point}`, circle, `${p.point} ${p.value_mm.toFixed(0)}`, 0xb45309);
+  });
   viewer.frameAll();
   const toggle = (id, label, on, change) => {
     const input = h('input', { id, type: 'checkbox', checked: on, onchange: () => change(input.checked) });

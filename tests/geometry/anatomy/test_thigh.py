@@ -50,6 +50,10 @@ def test_a_leg_of_revolution_gives_its_knee_its_fold_and_the_middle_of_its_thigh
     for point in (found.knee, found.mid_thigh, found.top_of_thigh):
         expected = 2 * np.pi * _radius(np.array([point.height_mm - D]))[0]  # a circle's tape girth
         assert point.girth_mm == pytest.approx(expected, abs=1.0)
+        # where the tape lies: the circle's centre at the point's height (x 0, y _centre_y)
+        centre_y = _centre_y(np.array([point.height_mm - D]))[0]
+        assert point.at_mm == pytest.approx((0.0, centre_y, point.height_mm), abs=0.5)
+        assert point.as_dict()["at_mm"] == list(point.at_mm)
 
 
 def test_a_scan_that_stops_short_or_bends_its_knee_says_why():
