@@ -73,7 +73,7 @@ class LevelPoint:
     at_mm: tuple[float, float, float] | None = None
 
     def as_dict(self) -> dict:
-        out = {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
+        out: dict = {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
         if self.at_mm is not None:
             out["at_mm"] = list(self.at_mm)
         return out
