@@ -369,6 +369,8 @@ def build_parser() -> argparse.ArgumentParser:
     design.add_argument("--type", default=DEFAULT_STOCKING_TYPE, choices=["AD", "AG"],
                         help="AD knee-high (default) or AG thigh-high (needs a record whose scan reaches the gluteal fold)")
     design.add_argument("--toe", default=DEFAULT_TOE, choices=["closed", "open"], help="the stocking's toe (closed)")
+    design.add_argument("--top-band", type=float, default=None, metavar="MM",
+                        help="the top band's width, mm (25 for AD, 50 for AG; 0: none)")
     design.add_argument("--json", action="store_true", help="print the whole design as JSON")
     design.set_defaults(func=_cmd_design)
 

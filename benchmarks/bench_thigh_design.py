@@ -58,8 +58,10 @@ def design_row(name: str, scan, side: str | None) -> dict:
     except FitFailure as failure:
         return out | {"outcome": failure.reason.value, "detail": failure.detail}
     rows = design["knitting_spec"]
-    target = np.array([r["target_mmHg"] for r in rows])
-    predicted = np.array([r["predicted_mean_mmHg"] for r in rows])
+    graded = [r for r in rows if r["part"] != "top band"]  # the foot's and the leg's rows knit to their targets
+    target = np.array([r["target_mmHg"] for r in graded])
+    predicted = np.array([r["predicted_mean_mmHg"] for r in graded])
+    band = design["top_band"]
     b = design["landmarks"]["B"]["mean_pressure_mmHg"]
     levels = design["thigh"]["levels"]
     checks = {c["name"]: c for c in design["checks"]}
@@ -69,6 +71,10 @@ def design_row(name: str, scan, side: str | None) -> dict:
         "F_over_B": levels["F"]["mean_pressure_mmHg"] / b, "G_over_B": levels["G"]["mean_pressure_mmHg"] / b,
         "height_G_mm": levels["G"]["height_mm"], "rows": len(rows),
         "laplace_worst_share": float(np.max(np.abs(predicted / target - 1.0))),
+        "foot_designed": bool(design["foot"]["designed"]), "foot_reason": design["foot"]["reason"],
+        # the band presses nowhere more than the graded rows it replaces (stocking_ends.top_band)
+        "band_over_graded_max": float(max(r["predicted_mean_mmHg"] / r["target_mmHg"] for r in rows if r["part"] == "top band")),
+        "band_mmHg": band["band_mmHg"], "band_graded_mmHg": band["graded_mmHg"],
         "class_at_B": next(c["pass"] for n, c in checks.items() if n.startswith("B in ")),
         "graded_to_G": checks["graded D > E > F > G"]["pass"],
         "failed_checks": [n for n, c in checks.items() if not c["pass"]],
@@ -100,16 +106,21 @@ def report(result: dict) -> str:
              f"AG, a linear fabric of K = {STIFFNESS:g} N/cm; each generated leg as a clean mesh, a noisy cloud and a body's "
              "two legs. "
              "F/B 30-60% and G/B 20-40% are advisory (commonly cited, not confirmed normative); the class at B and "
-             "D > E > F > G are normative. Laplace: the largest |predicted / target - 1| over the knitted rows B to G.", "",
-             "| scan | outcome | B mmHg | D/B | F/B | G/B | class at B | D > E > F > G | Laplace worst | verdict | failed checks |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "D > E > F > G are normative. Laplace: the largest |predicted / target - 1| over the knitted rows, the foot's (cA, "
+             "cY, for B's target) and B to G's graded rows. Top band (50 mm at G, one relaxed circumference): its mean pressure "
+             "against the graded rows' it replaces (min-max).", "",
+             "| scan | outcome | B mmHg | D/B | F/B | G/B | class at B | D > E > F > G | Laplace worst | foot | top band mmHg "
+             "(graded) | verdict | failed checks |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     every = result["rows"] + result["real"]
     for r in every:
         if r["outcome"] != "design":
             continue
         lines.append(f"| {r['scan']} | design | {r['B_mmHg']:.1f} | {r['D_over_B']:.0%} | {r['F_over_B']:.0%} | {r['G_over_B']:.0%} | "
                      f"{'pass' if r['class_at_B'] else 'FAIL'} | {'pass' if r['graded_to_G'] else 'FAIL'} | "
-                     f"{r['laplace_worst_share']:.1%} | {r['verdict']} | {', '.join(r['failed_checks']) or '-'} |")
+                     f"{r['laplace_worst_share']:.1%} | {'yes' if r['foot_designed'] else 'no'} | "
+                     f"{r['band_mmHg'][0]:.1f}-{r['band_mmHg'][1]:.1f} ({r['band_graded_mmHg'][0]:.1f}-{r['band_graded_mmHg'][1]:.1f}) | "
+                     f"{r['verdict']} | {', '.join(r['failed_checks']) or '-'} |")
     designed = [r for r in every if r["outcome"] == "design"]
     with_g = {r["scan"][:5] for r in result["rows"] if r["outcome"] == "design"}
     lines += ["", f"- generated legs whose scans reach the gluteal fold (G found, so AG can be designed): {len(with_g)} / "
@@ -117,7 +128,9 @@ def report(result: dict) -> str:
               "scan: app.geometry.anatomy.thigh finds no fold), and an AG design is refused saying so",
               f"- designed: {len(designed)} / {len(every)}; class at B: {sum(r['class_at_B'] for r in designed)}; "
               f"graded to G: {sum(r['graded_to_G'] for r in designed)}; Laplace within {LAPLACE_RTOL:.0%}: "
-              f"{sum(r['laplace_worst_share'] <= LAPLACE_RTOL for r in designed)}",
+              f"{sum(r['laplace_worst_share'] <= LAPLACE_RTOL for r in designed)}; foot designed (cA and cY in the scan): "
+              f"{sum(r['foot_designed'] for r in designed)}; top band nowhere above its target: "
+              f"{sum(r['band_over_graded_max'] <= 1.0 + LAPLACE_RTOL for r in designed)}",
               "- verdicts: " + ", ".join(f"{v} {sum(r['verdict'] == v for r in designed)}" for v in ("pass", "review", "fail"))]
     refused = collections.Counter(f"{r['outcome']}: {r['detail']}" for r in every if r["outcome"] != "design")
     if refused:

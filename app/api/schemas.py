@@ -272,6 +272,23 @@ class DesignRequest(BaseModel):
     toe: Literal["closed", "open"] = Field(DEFAULT_TOE, description="the stocking's toe, carried to the order")
     stocking_type: Literal["AD", "AG"] = Field(DEFAULT_STOCKING_TYPE, description="AD knee-high (B to D), AG thigh-high "
                                                "(on to G: needs a record whose scan reaches the gluteal fold)")
+    top_band_mm: float | None = Field(None, ge=0, le=100, description="the top band's width, mm (default 25 for AD, 50 for AG; "
+                                      "0: no band): one relaxed circumference, nowhere tighter than the graded rows it replaces")
+
+
+class KnittingRow(BaseModel):
+    """One knitted row: its part (foot, leg, top band), its measuring point where it has one,
+    its height (calf frame mm: the foot's rows lie below B) and what is knitted there."""
+
+    part: Literal["foot", "leg", "top band"] = "leg"
+    point: str | None = Field(None, description="cA or cY on the foot; B, B1, C, D, E, F, G on the leg's rows at them")
+    height_mm: float
+    target_mmHg: float
+    stretched_circumference_mm: float = Field(description="the skin's tape girth the fabric spans, mm")
+    tension_N_per_cm: float
+    strain: float
+    relaxed_circumference_mm: float = Field(description="L0, the circumference to knit, mm")
+    predicted_mean_mmHg: float = Field(description="what the knitted row gives: 2 pi T / L (Laplace round the hull)")
 
 
 class DesignOut(BaseModel):
@@ -290,7 +307,11 @@ class DesignOut(BaseModel):
         "limit; pass: every check passes and no hot spot (designs made before 2026-12 have none)")
     verdict_reasons: list[str] | None = Field(None, description="why the verdict is not pass, a sentence each")
     hot_spots: list
-    knitting_spec: list
+    foot: dict | None = Field(None, description="the foot: designed (its toe, foot and knitted lengths, rows at cA and "
+                              "cY) or the reason it is not (designs made before 2026-12-03 have none)")
+    top_band: dict | None = Field(None, description="the top band (width, heights, relaxed circumference, its pressure "
+                                  "against the graded rows'), or null")
+    knitting_spec: list[KnittingRow] = Field(description="from the foot to the top, a row each")
     links: dict[str, str]
 
 
@@ -327,7 +348,9 @@ class OrderOut(BaseModel):
     verdict_reasons: list[str]
     checks: list
     hot_spots: list
-    knitting_spec: list
+    foot: dict | None = None
+    top_band: dict | None = None
+    knitting_spec: list[KnittingRow]
     warnings: list[str] = Field(description="every warning of the record, the design and the order, a sentence each")
 
 

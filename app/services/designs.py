@@ -57,6 +57,7 @@ def inputs_from_request(data: dict) -> DesignInputs:
         resolution_mm=float(data.get("resolution_mm", defaults.resolution_mm)),
         toe=str(data.get("toe", defaults.toe)),
         stocking_type=str(data.get("stocking_type", defaults.stocking_type)),
+        top_band_mm=None if data.get("top_band_mm") is None else float(data["top_band_mm"]),
     )
 
 
@@ -71,6 +72,7 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
         "resolution_mm": inputs.resolution_mm,
         "toe": inputs.toe,
         "stocking_type": inputs.stocking_type,
+        "top_band_mm": inputs.top_band_mm,
     }
 
 
@@ -107,10 +109,56 @@ def _landmark_document(at: LandmarkPressure) -> dict:
     }
 
 
+def _spec_rows(design: StockingDesign) -> list[dict]:
+    """The knitting specification from the foot to the top, a row each: the foot's (cA,
+    cY: part "foot"), the graded rows (part "leg"; ``point`` names a landmark's or a thigh
+    level's row) and those the top band replaces (part "top band": the band's relaxed
+    circumference and what it gives there)."""
+    rows = [{"part": "foot", "point": r.point, "height_mm": r.height_mm, "target_mmHg": r.target_mmhg,
+             "stretched_circumference_mm": r.stretched_circumference_mm, "tension_N_per_cm": r.tension_n_per_cm,
+             "strain": r.strain, "relaxed_circumference_mm": r.relaxed_circumference_mm,
+             "predicted_mean_mmHg": r.predicted_mean_mmhg} for r in (design.foot.part.rows if design.foot.part else ())]
+    spec, band = design.knitting_spec, design.top_band
+    named = {round(at.height_mm, 6): name for name, at in design.landmarks.items()}
+    if design.thigh is not None:
+        named.update({round(level.height_mm, 6): name for name, level in design.thigh.levels.items()})
+    in_band = {} if band is None else {int(i): k for k, i in enumerate(band.replaces)}
+    for i, (h, t, L, T, e, L0, m) in enumerate(zip(spec.heights_mm, spec.target_mmhg, spec.stretched_circumference_mm,
+                                                   spec.tension_n_per_cm, spec.strain, spec.relaxed_circumference_mm,
+                                                   spec.predicted_mean_pa)):
+        row = {"part": "leg", "point": named.get(round(float(h), 6)), "height_mm": float(h), "target_mmHg": float(t),
+               "stretched_circumference_mm": float(L), "tension_N_per_cm": float(T), "strain": float(e),
+               "relaxed_circumference_mm": float(L0), "predicted_mean_mmHg": float(m / PA_PER_MMHG)}
+        if band is not None and i in in_band:
+            k = in_band[i]
+            row.update(part="top band", relaxed_circumference_mm=band.relaxed_circumference_mm,
+                       strain=float(band.band_strain[k]), tension_N_per_cm=float(band.band_tension_n_per_cm[k]),
+                       predicted_mean_mmHg=float(band.band_pressure_mmhg[k]))
+        rows.append(row)
+    return rows
+
+
+def _ends_document(design: StockingDesign) -> dict:
+    """The design's foot and top band (app.geometry.garment.stocking_ends)."""
+    foot, band = design.foot.part, design.top_band
+    return {
+        "foot": {"designed": foot is not None, "reason": design.foot.reason,
+                 **({} if foot is None else {
+                     "toe": foot.toe, "foot_length_mm": foot.foot_length_mm, "knitted_length_mm": foot.knitted_length_mm,
+                     "length_rule": foot.length_rule, "target_rule": "B's target: the graduation begins at B (no "
+                     "standard sets the foot's pressure)", "points": [r.point for r in foot.rows]})},
+        "top_band": None if band is None else {
+            "width_mm": band.width_mm, "from_height_mm": band.from_height_mm, "to_height_mm": band.to_height_mm,
+            "relaxed_circumference_mm": band.relaxed_circumference_mm,
+            "band_mmHg": list(band.band_mmhg), "graded_mmHg": list(band.graded_mmhg),
+            "rule": "one relaxed circumference, the largest of the graded rows it replaces: nowhere tighter than "
+                    "the graded stocking (no tourniquet at the top)"},
+    }
+
+
 def design_document(design: StockingDesign) -> dict:
     """The JSON form of a design, as stored and as the API's DesignOut carries it
     (units named in ``units``; the one place a StockingDesign is shaped for the wire)."""
-    spec = design.knitting_spec
     verdict, reasons = design.verdict
     return {
         "units": {"length": "mm", "pressure": "mmHg (kPa where named)", "tension": "N/cm"},
@@ -138,14 +186,8 @@ def design_document(design: StockingDesign) -> dict:
                               "relaxed_circumference_mm": lv.relaxed_circumference_mm, "strain": lv.strain,
                               "tension_N_per_cm": lv.tension_n_per_cm} for name, lv in design.thigh.levels.items()},
         },
-        "knitting_spec": [
-            {"height_mm": float(h), "target_mmHg": float(t), "stretched_circumference_mm": float(L),
-             "tension_N_per_cm": float(T), "strain": float(e), "relaxed_circumference_mm": float(L0),
-             "predicted_mean_mmHg": float(m / PA_PER_MMHG)}
-            for h, t, L, T, e, L0, m in zip(spec.heights_mm, spec.target_mmhg, spec.stretched_circumference_mm,
-                                            spec.tension_n_per_cm, spec.strain, spec.relaxed_circumference_mm,
-                                            spec.predicted_mean_pa)
-        ],
+        **_ends_document(design),
+        "knitting_spec": _spec_rows(design),
     }
 
 
@@ -217,11 +259,31 @@ def fabric_text(fabric: dict) -> str:
     return f"measured tension-strain table of {len(fabric.get('table') or [])} rows"
 
 
+def _foot_text(foot: dict | None) -> str:
+    if not foot:
+        return "not designed (a design made before the foot was)"
+    if not foot.get("designed"):
+        return f"not designed: {foot.get('reason')}"
+    length = foot.get("knitted_length_mm")
+    return (f"{foot['toe']} toe, rows at {', '.join(foot['points'])}; "
+            + (f"knitted length {length:.0f} mm ({foot['length_rule']})" if length is not None else foot["length_rule"]))
+
+
+def _band_text(band: dict | None) -> str:
+    if not band:
+        return "none"
+    return (f"{band['width_mm']:g} mm wide from {band['from_height_mm']:.0f} to {band['to_height_mm']:.0f} mm, "
+            f"relaxed circumference {band['relaxed_circumference_mm']:.0f} mm, {band['band_mmHg'][0]:.1f}-"
+            f"{band['band_mmHg'][1]:.1f} mmHg (the graded rows: {band['graded_mmHg'][0]:.1f}-{band['graded_mmHg'][1]:.1f})")
+
+
 def knitting_csv(design: Design) -> str:
     """The knitting specification as CSV: first ``# key: value`` lines naming what it
     belongs to (the record, the design, the side, the stocking type and toe, the standard
-    and class or the explicit targets, the fabric, the verdict) - a manufacturer's file must not lose its leg -
-    then one row per height (pandas: ``read_csv(..., comment="#")``)."""
+    and class or the explicit targets, the fabric, the verdict, the foot's length and the
+    top band) - a manufacturer's file must not lose its leg - then one row per knitted row
+    from the foot to the top, each naming its part (foot, leg, top band) and its
+    measuring point where it has one (pandas: ``read_csv(..., comment="#")``)."""
     result = design.result
     out = io.StringIO()
     klass = result.get("class")
@@ -236,16 +298,19 @@ def knitting_csv(design: Design) -> str:
         "standard and class": f"{klass['standard']} class {klass['class']}" if klass else "explicit targets",
         "fabric": fabric_text(result.get("fabric") or {}),
         "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),
+        "foot": _foot_text(result.get("foot")),
+        "top band": _band_text(result.get("top_band")),
         "units": "mm, mmHg, N/cm",
     }
     for key, value in header.items():
         out.write(f"# {key}\n" if value is None else f"# {key}: {value}\n")
     writer = csv.writer(out)
-    columns = ["height_mm", "target_mmHg", "predicted_mean_mmHg", "stretched_circumference_mm", "strain",
+    columns = ["part", "point", "height_mm", "target_mmHg", "predicted_mean_mmHg", "stretched_circumference_mm", "strain",
                "tension_N_per_cm", "relaxed_circumference_mm"]
     writer.writerow(columns)
     for row in result["knitting_spec"]:
-        writer.writerow([f"{row[c]:.4f}" if isinstance(row[c], float) else row[c] for c in columns])
+        row = {"part": "leg", "point": None, **row}  # designs made before the foot and band had neither
+        writer.writerow([f"{row[c]:.4f}" if isinstance(row[c], float) else ("" if row[c] is None else row[c]) for c in columns])
     return out.getvalue()
 
 

@@ -133,13 +133,33 @@ def _size_text(decision: dict) -> str:
     return f"Made to measure: no size of {whose} fits every point (nearest {decision.get('nearest')}: {outside})."
 
 
+def _ends_lines(order: dict) -> list[str]:
+    """The foot's and the top band's lines above the knitting table."""
+    lines = []
+    foot, band = order.get("foot"), order.get("top_band")
+    if foot and foot.get("designed"):
+        length = foot.get("knitted_length_mm")
+        lines.append(f"Foot: {foot['toe']} toe, knitted length "
+                     + (f"{length:.0f} mm" if length is not None else "to be measured") + f" ({foot['length_rule']}); "
+                     f"rows at {', '.join(foot['points'])} for B's pressure.")
+    elif foot:
+        lines.append(f"Foot: not designed: {foot.get('reason')}")
+    if band:
+        lines.append(f"Top band: {band['width_mm']:g} mm wide ({band['from_height_mm']:.0f}-{band['to_height_mm']:.0f} mm "
+                     f"above B), relaxed circumference {band['relaxed_circumference_mm']:.0f} mm, "
+                     f"{band['band_mmHg'][0]:.1f}-{band['band_mmHg'][1]:.1f} mmHg (graded rows "
+                     f"{band['graded_mmHg'][0]:.1f}-{band['graded_mmHg'][1]:.1f} mmHg): nowhere tighter than the stocking below.")
+    return lines
+
+
 def _knitting_table(order: dict, small) -> Table:
     columns = [("height_mm", "above B mm", 1), ("target_mmHg", "target mmHg", 1), ("predicted_mean_mmHg", "predicted mmHg", 1),
                ("stretched_circumference_mm", "on leg mm", 1), ("strain", "strain", 3),
                ("tension_N_per_cm", "tension N/cm", 2), ("relaxed_circumference_mm", "relaxed mm", 1)]
-    rows = [[Paragraph(f"<b>{title}</b>", small) for _, title, _ in columns]]
-    rows += [[f"{row[key]:.{digits}f}" for key, _, digits in columns] for row in order["knitting_spec"]]
-    table = Table(rows, repeatRows=1, colWidths=[24 * MM] * len(columns))
+    rows = [[Paragraph("<b>part</b>", small)] + [Paragraph(f"<b>{title}</b>", small) for _, title, _ in columns]]
+    rows += [[" ".join(str(x) for x in (row.get("part", "leg"), row.get("point") or "") if x).strip()]
+             + [f"{row[key]:.{digits}f}" for key, _, digits in columns] for row in order["knitting_spec"]]
+    table = Table(rows, repeatRows=1, colWidths=[20 * MM] + [22 * MM] * len(columns))
     table.setStyle(TableStyle([("FONTSIZE", (0, 1), (-1, -1), 7), ("ALIGN", (0, 1), (-1, -1), "RIGHT"),
                                ("LINEBELOW", (0, 0), (-1, 0), 0.5, INK), ("ROWBACKGROUNDS", (0, 1), (-1, -1),
                                                                              [colors.white, colors.HexColor("#f3f5f8")]),
@@ -175,7 +195,9 @@ def order_pdf(order: dict) -> bytes:
         Paragraph(escape(_size_text(order["size_decision"])), body),
         Paragraph("Warnings", heading),
         *[Paragraph("- " + escape(w), body) for w in order["warnings"]],
-        Paragraph(f"Knitting specification (B to {'G' if order['stocking']['type'] == 'AG' else 'D'})", heading),
+        Paragraph(f"Knitting specification ({'foot' if (order.get('foot') or {}).get('designed') else 'B'} to "
+                  f"{'G' if order['stocking']['type'] == 'AG' else 'D'})", heading),
+        *[Paragraph(escape(line), body) for line in _ends_lines(order)],
         _knitting_table(order, small),
     ]
     document.build(story, onFirstPage=footer, onLaterPages=footer)

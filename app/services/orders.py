@@ -47,12 +47,14 @@ def _warnings(record: CalfRecord, result: dict, inputs: dict, measured, decision
     if decision["chart"]["example"]:
         warnings.append("the size decision is against the shipped EXAMPLE chart (ANSUR II percentiles), not a product's chart")
     if result.get("stocking_type", "AD") == "AG":
-        warnings.append("the knitting specification covers B to G; above D it is designed on the thigh's tape girths "
-                        "(mean pressure, no local pressure map); foot and top band are made from cA, cY and cG to "
-                        "the manufacturer's practice")
-    else:
-        warnings.append("the knitting specification covers B to D, the calf the scan models; foot and top band are made "
-                        "from cA, cY and cD to the manufacturer's practice")
+        warnings.append("above D the knitting specification is designed on the thigh's tape girths (mean pressure, "
+                        "no local pressure map)")
+    foot = result.get("foot")
+    if not foot:
+        warnings.append("the design was made before the foot and the top band were designed: the specification covers "
+                        "the leg only; the foot is made from cA and cY to the manufacturer's practice")
+    elif not foot.get("designed"):
+        warnings.append(f"the foot is not in the knitting specification: {foot.get('reason')}")
     return warnings
 
 
@@ -107,6 +109,8 @@ def order_document(design: Design, row: Record, record: CalfRecord, decision: di
         "verdict_reasons": result.get("verdict_reasons") or [],
         "checks": result.get("checks", []),
         "hot_spots": result.get("hot_spots", []),
+        "foot": result.get("foot"),
+        "top_band": result.get("top_band"),
         "knitting_spec": result["knitting_spec"],
         "warnings": _warnings(record, result, inputs, measured, decision),
     }

@@ -36,7 +36,7 @@ def test_design_is_stored_with_its_inputs_and_meets_the_class(client, record_id,
     assert again["inputs"] == {"standard": "RAL", "compression_class": "II", "targets_mmHg": None,
                                "fabric": {"stiffness_n_per_cm": 10.0, "max_strain": 1.0},
                                "hot_spot_limit_mmHg": 60.0, "step_mm": 5.0, "resolution_mm": 1.0, "toe": "closed",
-                               "stocking_type": "AD"}
+                               "stocking_type": "AD", "top_band_mm": None}
     assert again["record_id"] == record_id and again["passed"] is True
     b = again["landmarks"]["B"]
     assert 23 <= b["mean_pressure_mmHg"] <= 32 and b["mean_pressure_kPa"] == pytest.approx(b["mean_pressure_mmHg"] * 0.133322, rel=1e-6)
@@ -60,11 +60,21 @@ def test_knitting_spec_csv(client, design):
     assert header["fabric"].startswith("linear, K = ") and header["verdict"] in ("pass", "review", "fail")
     rows = list(csv.DictReader(io.StringIO("\n".join(line for line in lines if not line.startswith("#")))))
     assert len(rows) == len(design["knitting_spec"])
-    heights = [float(r["height_mm"]) for r in rows]
-    assert heights == sorted(heights) and heights[0] == 0.0
+    # from the foot to the top: the foot's rows (toe to heel), the leg's from B, the top band's to D
+    parts = [r["part"] for r in rows]
+    assert parts == sorted(parts, key=["foot", "leg", "top band"].index) and set(parts) == {"foot", "leg", "top band"}
+    assert [r["point"] for r in rows if r["part"] == "foot"] == ["cA", "cY"]
+    assert header["foot"].startswith("closed toe, rows at cA, cY; knitted length") and header["top band"].startswith("25 mm wide")
+    heights = [float(r["height_mm"]) for r in rows if r["part"] != "foot"]
+    assert heights == sorted(heights) and heights[0] == 0.0 and rows[parts.index("leg")]["point"] == "B"
+    assert rows[-1]["point"] == "D" and float(rows[-1]["height_mm"]) == pytest.approx(design["landmarks"]["D"]["height_mm"], abs=1e-3)
     for row in rows:
         stretched, relaxed = float(row["stretched_circumference_mm"]), float(row["relaxed_circumference_mm"])
         assert relaxed < stretched and float(row["strain"]) == pytest.approx(stretched / relaxed - 1, abs=1e-3)
+    # the band is one relaxed circumference, nowhere pressing more than the graded rows it replaces
+    band = [r for r in design["knitting_spec"] if r["part"] == "top band"]
+    assert len({r["relaxed_circumference_mm"] for r in band}) == 1
+    assert all(r["predicted_mean_mmHg"] <= r["target_mmHg"] * 1.03 for r in band)
 
 
 def test_pressure_map_glb_has_vertex_colours_and_a_legend(client, design):

@@ -137,20 +137,22 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
     record = client.get(f"/api/v1/records/{design['record_id']}").json()
     g = record["chart"]["cG"]["height_mm"]
     assert ag["stocking_type"] == "AG" and set(ag["thigh"]["levels"]) == {"E", "F", "G"}
-    spec = ag["knitting_spec"]
+    spec = [row for row in ag["knitting_spec"] if row["part"] != "foot"]
     heights = [row["height_mm"] for row in spec]
     assert heights == sorted(heights) and heights[-1] == pytest.approx(g) and heights[0] == 0.0
+    assert [row["point"] for row in ag["knitting_spec"] if row["part"] == "foot"] == ["cA", "cY"]
+    assert ag["top_band"]["width_mm"] == 50 and ag["top_band"]["to_height_mm"] == pytest.approx(g)
     # graded on: the predicted pressure falls from D to G, and each thigh row's mean
     # pressure is Laplace's 2 pi T / L of its knitted row (within rounding of L0)
     d = record["landmarks"]["D"]["height_mm"]
-    thigh = [row for row in spec if row["height_mm"] > d]
+    thigh = [row for row in spec if row["height_mm"] > d and row["part"] == "leg"]  # the graded rows (not the band's)
     assert thigh[0]["predicted_mean_mmHg"] > thigh[-1]["predicted_mean_mmHg"]
     for row in thigh:
         laplace = 2 * 3.141592653589793 * row["tension_N_per_cm"] * 1e5 / row["stretched_circumference_mm"] / 133.322
         assert row["predicted_mean_mmHg"] == pytest.approx(laplace, rel=1e-6)
         assert row["predicted_mean_mmHg"] == pytest.approx(row["target_mmHg"], rel=0.03)
     knitting = client.get(f"/api/v1/designs/{ag['id']}/knitting-spec").text
-    assert "# stocking: AG thigh-high, closed toe" in knitting
+    assert "# stocking: AG thigh-high, closed toe" in knitting and "# top band: 50 mm wide" in knitting
     # its local pressure map and charts cover the surface, B to D (the thigh has none)
     csv_map = client.get(f"/api/v1/designs/{ag['id']}/pressure-map", params={"format": "csv"})
     assert csv_map.status_code == 200
@@ -167,7 +169,7 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
     assert {"cE", "cF", "cG", "lE", "lF", "lG"} <= set(needed) and all(needed[p]["value_mm"] for p in ("cE", "cF", "cG"))
     assert order["leg_outline"][-1]["height_mm"] == pytest.approx(g)
     pdf = client.get(f"/api/v1/designs/{ag['id']}/order", params={"format": "pdf"})
-    assert "Knitting specification (B to G)" in "".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(pdf.content)).pages)
+    assert "Knitting specification (foot to G)" in "".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(pdf.content)).pages)
 
     upload = client.post("/api/v1/scans", content=(REAL / "vh_female_skin.glb").read_bytes(), params={"side": "right"},
                          headers={"Content-Type": "model/gltf-binary"})

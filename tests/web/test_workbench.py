@@ -207,7 +207,11 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
         page.get_by_role("button", name="Download CSV").click()
     spec = Path(info.value.path()).read_text()
     assert spec.startswith("# calf-nurbs knitting specification") and "# record: " in spec and "# side: right" in spec
-    assert "height_mm,target_mmHg" in spec and len(spec.splitlines()) > 40
+    assert "part,point,height_mm,target_mmHg" in spec and len(spec.splitlines()) > 40
+    # from the foot (the BodyParts3D leg has one) to the top band
+    assert page.locator("#knitting-spec tbody tr[data-part=foot]").count() == 2
+    assert page.locator("#knitting-spec tbody tr[data-part='top band']").count() >= 5
+    assert page.locator("p.ends").first.inner_text().startswith("Foot: open toe, rows at cA, cY")
     # the order: what it still needs in words, and the PDF a clinic sends
     assert "open toe, knee-high (AD)" in page.locator("#order").inner_text()
     page.get_by_role("button", name="What the order still needs").click()

@@ -61,6 +61,7 @@ from app.geometry.garment.standards import (
     normalize_class,
     validate_targets,
 )
+from app.geometry.garment.stocking_ends import MAX_TOP_BAND_MM, TOES, TOP_BAND_WIDTH_MM, FootOutcome, TopBand, foot_part, top_band
 from app.geometry.garment.thigh_design import ThighPart, thigh_part
 from app.geometry.spline.nurbs import NurbsSurface
 
@@ -130,8 +131,11 @@ class StockingDesign:
     hot_spot_limit_mmhg: float
     side: str | None
     side_assumed: bool
-    knitting_spec: KnittingSpec  # B to D, and on to G for a thigh-high
+    knitting_spec: KnittingSpec  # the graded rows: B to D, and on to G for a thigh-high
     thigh: ThighPart | None = None  # a thigh-high's part above D
+    #: the foot's rows from cA and cY, or why not (app.geometry.garment.stocking_ends)
+    foot: FootOutcome = FootOutcome(None, "no foot was designed")
+    top_band: TopBand | None = None  # the band at the top, replacing the graded rows under it
 
     @property
     def stocking_type(self) -> str:
@@ -145,23 +149,27 @@ class StockingDesign:
     @property
     def verdict(self) -> tuple[str, list[str]]:
         """(verdict, reasons): see :func:`design_verdict`."""
-        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg)
+        incomplete = [] if self.foot.part is not None else [f"the foot is not in the knitting specification: {self.foot.reason}"]
+        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg, incomplete)
 
 
-def design_verdict(checks, hot_spots, limit_mmhg: float) -> tuple[str, list[str]]:
+def design_verdict(checks, hot_spots, limit_mmhg: float, incomplete: list[str] | None = None) -> tuple[str, list[str]]:
     """The verdict a clinician reads first: "fail" when a normative check of the standard
     fails; "review" when only an advisory check (the commonly cited, not normative,
-    gradient rows) fails or local pressure somewhere exceeds the hot-spot limit; "pass"
-    only when every check passes and no hot spot is found.  With the reasons, each a
+    gradient rows) fails, local pressure somewhere exceeds the hot-spot limit or a part of
+    the stocking could not be specified from the scan (``incomplete``, a sentence each:
+    the foot without cA or cY); "pass" only when every check passes, no hot spot is found
+    and the stocking is specified from the foot to the top.  With the reasons, each a
     sentence naming the check or where the hot spot is (height above B, side, peak)."""
     reasons = [f"{c.name}: fails (normative)" for c in checks if not c.passed and c.normative]
     verdict = "fail" if reasons else "pass"
     advisory = [f"{c.name}: outside (advisory)" for c in checks if not c.passed and not c.normative]
     spots = [f"local pressure {s.peak_mmhg:.1f} mmHg above the {limit_mmhg:g} mmHg limit at {s.height_mm:.0f} mm "
              f"above B ({s.from_height_mm:.0f}-{s.to_height_mm:.0f} mm), {s.side}" for s in hot_spots]
-    if verdict == "pass" and (advisory or spots):
+    missing = list(incomplete or [])
+    if verdict == "pass" and (advisory or spots or missing):
         verdict = "review"
-    return verdict, reasons + advisory + spots
+    return verdict, reasons + advisory + spots + missing
 
 
 @dataclass(frozen=True)
@@ -175,6 +183,8 @@ class DesignInputs:
     resolution_mm: float = DEFAULT_RESOLUTION_MM
     toe: str = DEFAULT_TOE  # "closed" | "open": the stocking's foot (the order carries it)
     stocking_type: str = DEFAULT_STOCKING_TYPE  # "AD" knee-high, "AG" thigh-high (app.geometry.garment.thigh_design)
+    #: the top band's width, mm (None: the type's usual, stocking_ends.TOP_BAND_WIDTH_MM; 0: none)
+    top_band_mm: float | None = None
     n_around: int = 360
 
 
@@ -200,6 +210,11 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         raise FitFailure(FailureReason.INVALID_TARGET, "resolution_mm must be in (0, 10] mm")
     if not (5 <= inputs.hot_spot_limit_mmhg <= 300):
         raise FitFailure(FailureReason.INVALID_TARGET, "the hot-spot limit must be 5-300 mmHg")
+    if inputs.toe not in TOES:
+        raise FitFailure(FailureReason.INVALID_TARGET, f"toe must be one of {', '.join(TOES)}")
+    band_mm = TOP_BAND_WIDTH_MM[inputs.stocking_type] if inputs.top_band_mm is None else float(inputs.top_band_mm)
+    if not (0.0 <= band_mm <= MAX_TOP_BAND_MM):
+        raise FitFailure(FailureReason.INVALID_TARGET, f"top_band_mm must be 0-{MAX_TOP_BAND_MM:g} mm (0: no band)")
     inputs.fabric.validate()
 
     class_info = None
@@ -253,6 +268,9 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
                            targets["B"], p["D"], inputs.fabric, inputs.step_mm, inputs.resolution_mm)
         checks += thigh.checks
         spec = spec.joined(thigh.rows)
+    if band_mm > 0.5 * float(spec.heights_mm[-1] - spec.heights_mm[0]):
+        raise FitFailure(FailureReason.INVALID_TARGET, f"a top band of {band_mm:g} mm is more than half the stocking's "
+                                                       f"graded length ({spec.heights_mm[-1] - spec.heights_mm[0]:.0f} mm)")
     return StockingDesign(
         compression_class=class_info,
         targets_mmhg=targets,
@@ -266,6 +284,8 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         side_assumed=side_assumed,
         knitting_spec=spec,
         thigh=thigh,
+        foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
+        top_band=top_band(spec, band_mm, inputs.fabric),
     )
 
 

@@ -232,10 +232,11 @@ def pressure_map(surface: NurbsSurface, design: dict, fabric: Fabric, n_around: 
     """Local pressure (Pa) on a (heights, n_around) grid, from the design's knitting spec.
 
     Heights every 2.5 mm from B to D, where the surface is (a thigh-high's spec runs on to
-    G on the thigh's tape girths, off the surface: no local map there); tension
-    interpolated from the spec in height.
+    G on the thigh's tape girths, and the foot's rows lie below B: off the surface, no
+    local map there); tension interpolated from the spec's leg rows (the top band's with
+    the band's tension) in height.
     """
-    spec = design["knitting_spec"]
+    spec = [row for row in design["knitting_spec"] if row.get("part", "leg") != "foot"]
     h_spec = np.array([row["height_mm"] for row in spec])
     t_spec = np.array([row["tension_N_per_cm"] for row in spec])
     top = min(float(h_spec[-1]), float(design["landmarks"]["D"]["height_mm"]))

@@ -484,11 +484,22 @@ async function designScreen(id) {
         h('td', { text: mm(s.peak_mmHg) }), h('td', { text: `${mm(s.from_height_mm)}–${mm(s.to_height_mm)}` })))))
       : h('p', { class: 'good', text: 'No hot spot: the local pressure stays under the limit everywhere.' }));
   const columns = ['height_mm', 'target_mmHg', 'predicted_mean_mmHg', 'stretched_circumference_mm', 'strain', 'tension_N_per_cm', 'relaxed_circumference_mm'];
-  const spec = h('div', { class: 'card' }, h('h2', { text: 'Knitting specification' }),
+  // the foot and the top band in words above the rows (app/geometry/garment/stocking_ends.py)
+  const foot = design.foot, band = design.top_band;
+  const ends = [
+    foot ? (foot.designed ? `Foot: ${foot.toe} toe, rows at ${foot.points.join(', ')} for B's pressure; ${foot.length_rule}`
+      + (foot.knitted_length_mm != null ? ` (${mm(foot.knitted_length_mm, 0)} mm).` : '.') : `Foot: not designed: ${foot.reason}`) : null,
+    band ? `Top band: ${band.width_mm} mm wide (${mm(band.from_height_mm, 0)}–${mm(band.to_height_mm, 0)} mm), relaxed circumference `
+      + `${mm(band.relaxed_circumference_mm, 0)} mm, ${mm(band.band_mmHg[0])}–${mm(band.band_mmHg[1])} mmHg: nowhere tighter than the graded rows.` : null,
+  ].filter(Boolean).map((text) => h('p', { class: 'ends', text }));
+  const spec = h('div', { class: 'card' }, h('h2', { text: 'Knitting specification, from the foot to the top' }), ...ends,
     h('button', { class: 'secondary', type: 'button', id: 'download-spec', text: 'Download CSV',
       onclick: () => guarded(() => download(`/designs/${id}/knitting-spec`, `knitting-${id.slice(0, 8)}.csv`)) }),
-    h('div', { class: 'scroll' }, h('table', { id: 'knitting-spec' }, h('thead', {}, h('tr', {}, columns.map((c) => h('th', { class: 'num', text: c.replaceAll('_', ' ') })))),
-      h('tbody', {}, design.knitting_spec.map((row) => h('tr', {}, columns.map((c) => h('td', { class: 'num', text: typeof row[c] === 'number' ? row[c].toFixed(c === 'strain' ? 3 : 1) : row[c] }))))))));
+    h('div', { class: 'scroll' }, h('table', { id: 'knitting-spec' }, h('thead', {}, h('tr', {}, h('th', { text: 'part' }),
+      columns.map((c) => h('th', { class: 'num', text: c.replaceAll('_', ' ') })))),
+      h('tbody', {}, design.knitting_spec.map((row) => h('tr', { 'data-part': row.part || 'leg' },
+        h('td', { text: [row.part || 'leg', row.point || ''].join(' ').trim() }),
+        columns.map((c) => h('td', { class: 'num', text: typeof row[c] === 'number' ? row[c].toFixed(c === 'strain' ? 3 : 1) : row[c] }))))))));
   if (!present(h('h1', { text: `Stocking design${design.case_ref ? ` · case ${design.case_ref}` : ''}` }),
     h('p', {}, h('a', { href: `#/records/${design.record_id}`, text: '← back to the record' })),
     h('div', { class: 'grid2' }, h('div', {}, h('div', { class: 'card' }, viewerBox, legend), hotList),
