@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from app.cad import CAD_FORMATS
-from app.geometry.errors import FitFailure
+from app.geometry.errors import FailureReason, FitFailure
 
 
 def _fail(exc: FitFailure) -> int:
@@ -122,16 +122,23 @@ def _cmd_export(args: argparse.Namespace) -> int:
         record = _load_record(args.record)
     except FitFailure as exc:
         return _fail(exc)
+    surface = record.surface
+    if args.part == "leg":  # the leg model from B to G (app.geometry.fit.leg_model)
+        leg = record.leg_model
+        if leg is None or leg.surface is None:
+            why = leg.reason if leg is not None else "the record was fitted before leg models were made: fit the scan again"
+            return _fail(FitFailure(FailureReason.INVALID_RECORD, f"the record has no leg model from B to G: {why}"))
+        surface = leg.surface
     if args.format in CAD_FORMATS:
         from app.cad import export_surface
 
-        data = export_surface(record.surface, args.format)
+        data = export_surface(surface, args.format)
         Path(args.output).write_bytes(data)
-        nu, nv = record.surface.shape
-        print(json.dumps({"written": args.output, "format": args.format, "exact": True, "control_points": [nu, nv],
-                          "frame": "calf (B at the origin, z up the leg, y anterior), mm"}))
+        nu, nv = surface.shape
+        print(json.dumps({"written": args.output, "format": args.format, "part": args.part, "exact": True,
+                          "control_points": [nu, nv], "frame": "calf (B at the origin, z up the leg, y anterior), mm"}))
         return 0
-    mesh = surface_mesh(record.surface, record.frame, n_u=args.around, n_v=args.along)
+    mesh = surface_mesh(surface, record.frame, n_u=args.around, n_v=args.along)
     Path(args.output).write_bytes(export_mesh(mesh, args.format))
     print(json.dumps({"written": args.output, "format": args.format, "faces": int(len(mesh.faces))}))
     return 0
@@ -331,6 +338,9 @@ def build_parser() -> argparse.ArgumentParser:
     export.add_argument("--format", choices=["stl", "glb", "gltf", *CAD_FORMATS], default="stl")
     export.add_argument("--around", type=int, default=144, help="samples around the leg")
     export.add_argument("--along", type=int, default=100, help="samples along the leg")
+    export.add_argument("--part", choices=["calf", "leg"], default="calf",
+                        help="calf: the paper's calf, B to D (default); leg: the leg model from B to G, when the scan "
+                             "reached the top of the thigh")
     export.add_argument("-o", "--output", required=True)
     export.set_defaults(func=_cmd_export)
 

@@ -35,6 +35,18 @@ def test_fit_then_export(tmp_path, capsys):
         capsys.readouterr()
         mesh = trimesh.load(out, force="mesh")
         assert len(mesh.faces) == 2 * 144 * 99
+    # the leg model from B to G (this leg reaches the gluteal fold), exactly and as a mesh
+    assert main(["export", str(record_path), "--part", "leg", "--format", "step", "-o", str(tmp_path / "leg.step")]) == 0
+    written = json.loads(capsys.readouterr().out)
+    assert written["part"] == "leg" and written["control_points"] == [24 + 3, 24]
+    assert (tmp_path / "leg.step").read_bytes().startswith(b"ISO-10303-21")
+    assert main(["export", str(record_path), "--part", "leg", "-o", str(tmp_path / "leg.stl")]) == 0
+    capsys.readouterr()
+    assert trimesh.load(tmp_path / "leg.stl").extents.max() > 550  # B to G, 617 mm
+    without = tmp_path / "calf-only.json"
+    without.write_text(json.dumps({k: v for k, v in record.items() if k != "leg_model"}))
+    assert main(["export", str(without), "--part", "leg", "-o", str(tmp_path / "x.stl")]) == 3
+    assert "no leg model from B to G" in json.loads(capsys.readouterr().err)["detail"]
 
 
 def test_fit_failure_exits_3_with_the_reason(tmp_path, capsys):

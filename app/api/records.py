@@ -135,7 +135,7 @@ def negotiate_surface_format(accept: str | None, query_format: str | None) -> st
               "content": {m: {"schema": {"type": "string", "format": "binary"}} for m in SURFACE_MEDIA_TYPES.values()},
               "headers": {"ETag": {"schema": {"type": "string"}}, "Content-Disposition": {"schema": {"type": "string"}}}},
         304: {"description": "Not modified (If-None-Match matched the ETag)"},
-        **problems(s404="record_not_found", s406="not_acceptable: no supported media type in Accept / ?format=",
+        **problems(s404="record_not_found, leg_model_not_found", s406="not_acceptable: no supported media type in Accept / ?format=",
                    s422="invalid_density, invalid_record"),
     },
 )
@@ -148,6 +148,9 @@ async def get_surface(
     around: int = Query(144, ge=AROUND_RANGE[0], le=AROUND_RANGE[1], description="samples around the leg (meshes)"),
     along: int = Query(100, ge=ALONG_RANGE[0], le=ALONG_RANGE[1],
                        description=f"samples along the leg; around x along at most {MAX_SURFACE_SAMPLES}"),
+    part: Literal["calf", "leg"] = Query("calf", description="calf: the paper's calf, B to D; leg: the leg model "
+                                         "from B to G (records whose scan reaches the top of the thigh; else 404 "
+                                         "saying why)"),
     session: Session = Depends(get_session),
     principal: Principal = Depends(authorize("read")),
 ):
@@ -155,7 +158,7 @@ async def get_surface(
     service = RecordService(session, principal.tenant_id)
     record = await run_in_threadpool(service.get, record_id)
     exact = fmt in CAD_MEDIA_TYPES  # the sampling density does not apply to the exact formats
-    etag = f'"{surface_etag(record.etag, fmt, 0 if exact else around, 0 if exact else along)}"'
+    etag = f'"{surface_etag(record.etag, fmt, 0 if exact else around, 0 if exact else along, part)}"'
     if fmt in TIMESTAMPED_FORMATS:
         # STEP, IGES and 3dm writers stamp the time into the file: the same surface, not
         # the same bytes, so the validator is weak (RFC 9110 8.8.1)
@@ -164,9 +167,9 @@ async def get_surface(
     matches = [tag.strip().removeprefix("W/") for tag in (request.headers.get("if-none-match") or "").split(",")]
     if etag.removeprefix("W/") in matches or "*" in matches:
         return Response(status_code=304, headers={"ETag": etag})
-    data = await run_in_threadpool(service.surface, record, fmt, around, along)
+    data = await run_in_threadpool(service.surface, record, fmt, around, along, part)
     side = record.side or "leg"
-    filename = f"calf-{record.id[:12]}-{side}.{CAD_EXTENSIONS.get(fmt, fmt)}"
+    filename = f"{part}-{record.id[:12]}-{side}.{CAD_EXTENSIONS.get(fmt, fmt)}"
     return Response(
         content=data,
         media_type=SURFACE_MEDIA_TYPES[fmt],

@@ -17,7 +17,7 @@ from app.geometry.garment.design import (
     DEFAULT_TOE,
 )
 from app.geometry.garment.fabric import DEFAULT_MAX_STRAIN
-from app.records.codec import MAX_CONTROL_MM, MAX_NET
+from app.records.surface_codec import MAX_CONTROL_MM, MAX_NET
 
 #: a control point's coordinate, mm (calf frame); a weight; a knot
 Coordinate = Annotated[float, Field(ge=-MAX_CONTROL_MM, le=MAX_CONTROL_MM)]
@@ -99,6 +99,20 @@ class RecordChart(BaseModel):
     thigh_profile: ThighProfile | None = Field(None, description="tape girths from D to G (a thigh-high design knits from them)")
 
 
+class LegModel(BaseModel):
+    """The leg's surface from B to G (app.geometry.fit.leg_model), or the reason there is none."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    reason: str | None = Field(None, max_length=500, description="why the record has no leg model (no surface then)")
+    range: Literal["B-G"] | None = None
+    grid: str | None = Field(None, max_length=16, description="control rows along x columns around")
+    layers_mm: dict[Literal["B", "B1", "C", "D", "E", "F", "G"], Annotated[float, Field(ge=-2000, le=2000)]] | None = Field(
+        None, description="the heights its v is anchored at (v = k/6), calf frame mm")
+    correction_rms_mm: list[float] | None = None
+    surface_to_scan: dict | None = Field(None, description="the surface's distance to the scan (as the calf's fit has)")
+    surface: Surface | None = Field(None, description="a tube from B (v = 0) to G (v = 1), calf frame mm")
+
+
 class CalfRecordBody(BaseModel):
     """A calf record (see app.records.codec for every field)."""
 
@@ -117,6 +131,8 @@ class CalfRecordBody(BaseModel):
     landmarks: dict[Literal["B", "B1", "C", "D"], Landmark] = Field(default_factory=dict)
     chart: RecordChart | None = Field(
         None, description="version 3: the order form's points off the calf (foot, knee, thigh) measured from the scan")
+    leg_model: LegModel | None = Field(
+        None, description="version 3: the leg from B to G when the scan reaches the top of the thigh, or why not")
     fit: dict = Field(default_factory=dict)
 
 

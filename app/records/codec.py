@@ -24,6 +24,11 @@ JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")
               at_mm [3] (calf frame, where the tape lies), reason (why not measured, else
               null)}} and the thigh's (app.geometry.anatomy.thigh) {cE, cF, cG: {value_mm,
               height_mm (calf frame z), reason}}
+    leg_model (version 3, optional) the leg from B to G when the scan reaches the top of
+              the thigh (app.geometry.fit.leg_model): {range "B-G", grid, layers_mm {B, B1,
+              C, D, E, F, G} (its v = k/6 at each), correction_rms_mm, surface_to_scan,
+              surface (the calf's form, app.records.surface_codec)}, or {reason} when there
+              is none; the calf's ``surface`` stays the paper's, B to D
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
                max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
@@ -52,10 +57,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import FitFailure
 from app.geometry.fit.pipeline import FitResult
-from app.geometry.spline.bounds import check_leg_tube, check_surface_cost
-from app.geometry.spline.nurbs import NurbsSurface, evaluate_grid
+from app.geometry.spline.bounds import check_leg_tube
+from app.geometry.spline.nurbs import NurbsSurface
+from app.records.surface_codec import MAX_CONTROL_MM, parse_surface, surface_document
+from app.records.surface_codec import finite_array as _finite_array
+from app.records.surface_codec import invalid_record as _invalid
 
 SCHEMA_VERSION = 3
 READABLE_VERSIONS = (1, 2, 3)
@@ -64,13 +72,23 @@ CHART_POINTS = ("foot_length", "cA", "cY", "cE", "cF", "cG")
 MAX_CHART_MM = 1000.0
 #: most samples of the stored thigh profile (D to G every 5 mm: a 2 m leg needs ~200)
 MAX_THIGH_PROFILE = 400
-#: bounds of an importable record: a calf in its own frame (B at the origin, z along
-#: the leg) lies within a few hundred mm of the origin; these leave room for a whole
-#: leg and refuse numbers that would make every export and measurement run away
-MAX_CONTROL_MM = 2000.0
-MAX_NET = 256
-#: the surface must close around the leg to this tolerance (mm)
-CLOSURE_TOL_MM = 1e-3
+@dataclass(frozen=True)
+class LegModelRecord:
+    """The record's leg model (``leg_model``, app.geometry.fit.leg_model): the surface
+    from B to G with its anchors and fit, or None with the reason there is none."""
+
+    surface: NurbsSurface | None
+    reason: str | None = None
+    layers_mm: dict = field(default_factory=dict)  # B, B1, C, D, E, F, G heights, calf frame
+    grid: str | None = None
+    correction_rms_mm: tuple = ()
+    surface_to_scan: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        if self.surface is None:
+            return {"reason": self.reason}
+        return {"range": "B-G", "grid": self.grid, "layers_mm": self.layers_mm, "correction_rms_mm": list(self.correction_rms_mm),
+                "surface_to_scan": self.surface_to_scan, "surface": surface_document(self.surface)}
 
 
 @dataclass(frozen=True)
@@ -88,28 +106,22 @@ class CalfRecord:
     warnings: tuple = ()
     side_inference: dict | None = None
     chart: dict = field(default_factory=dict)  # version 3: foot_length, cA, cY (module docstring)
+    leg_model: LegModelRecord | None = None  # version 3: the surface from B to G, or why there is none
 
     def to_dict(self) -> dict:
-        s = self.surface
         extra: dict = {}
         if self.schema_version >= 2:
             extra = {"warnings": list(self.warnings), "side_inference": self.side_inference}
         if self.schema_version >= 3:
             extra["chart"] = self.chart
+            if self.leg_model is not None:
+                extra["leg_model"] = self.leg_model.to_dict()
         return {
             "schema_version": self.schema_version,
             "units": "mm",
             "side": self.side,
             **extra,
-            "surface": {
-                "degree_u": s.degree_u,
-                "degree_v": s.degree_v,
-                "knots_u": s.knots_u.tolist(),
-                "knots_v": s.knots_v.tolist(),
-                "control_points": s.control_points.tolist(),
-                "weights": s.weights.tolist(),
-                "periodic_u": bool(s.periodic_u),
-            },
+            "surface": surface_document(self.surface),
             "frame": self.frame.tolist(),
             "scan": self.scan,
             "landmarks": self.landmarks,
@@ -156,7 +168,12 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
         "confidence": None if placement is None else placement.side_confidence,
         "source": None if placement is None else placement.side_source,
     }
+    leg = result.leg_model
+    leg_model = None if leg is None else (
+        LegModelRecord(None, leg.reason) if leg.model is None else
+        LegModelRecord(leg.model.fit.surface, None, **{k: v for k, v in leg.model.as_dict().items() if k != "range"}))
     return CalfRecord(
+        leg_model=leg_model,
         surface=result.surface,
         chart={**(result.foot.as_dict() if result.foot is not None else {}),
                **(result.thigh.as_dict() if result.thigh is not None else {})},
@@ -233,41 +250,6 @@ def _parse_thigh_profile(profile) -> dict:
     return {"heights_mm": heights.tolist(), "tape_girth_mm": girths.tolist()}
 
 
-def _invalid(detail: str) -> FitFailure:
-    return FitFailure(FailureReason.INVALID_RECORD, detail)
-
-
-def _finite_array(value, name: str, ndim: int) -> np.ndarray:
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise _invalid(f"{name} must be an array of numbers") from exc
-    if array.ndim != ndim:
-        raise _invalid(f"{name} must be {ndim}-dimensional, got shape {array.shape}")
-    if not np.isfinite(array).all():
-        raise _invalid(f"{name} contains NaN or infinite values")
-    return array
-
-
-def _check_closed_around(surface: NurbsSurface) -> None:
-    """The surface contract: a tube closed around the leg (u), whether written periodic
-    (``periodic_u``, repeated control columns) or clamped with equal first and last
-    columns.  The exports, girths and pressure maps join u's two ends; an open sheet
-    would get a seam across the leg.  Checked where it matters: the curves u = start
-    and u = end at 33 heights must coincide within :data:`CLOSURE_TOL_MM`."""
-    (nu, nv), p, q = surface.shape, surface.degree_u, surface.degree_v
-    ends = np.array([surface.knots_u[p], surface.knots_u[nu]])
-    v = np.linspace(surface.knots_v[q], surface.knots_v[nv], 33)
-    with np.errstate(all="ignore"):
-        points = evaluate_grid(surface, ends, v)
-    gap = float(np.linalg.norm(points[0] - points[1], axis=-1).max())
-    if not np.isfinite(gap) or gap > CLOSURE_TOL_MM:
-        raise _invalid(
-            f"the surface is not closed around the leg: its two u ends are up to {gap:.3g} mm apart. A calf record "
-            "is a tube: periodic_u with the first degree_u control columns repeated at the end, or a clamped u "
-            "whose first and last control columns coincide")
-
-
 def parse_importable(data: dict) -> CalfRecord:
     """A record made elsewhere: :func:`parse_record`, and its surface must be a leg's
     tube (:func:`app.geometry.spline.bounds.check_leg_tube`: no zero radius, no
@@ -290,47 +272,8 @@ def parse_record(data: dict) -> CalfRecord:
     surf = data.get("surface")
     if not isinstance(surf, dict):
         raise _invalid("surface is missing")
-    try:
-        p, q = int(surf["degree_u"]), int(surf["degree_v"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise _invalid("surface.degree_u and surface.degree_v must be integers") from exc
-    if not (1 <= p <= 5 and 1 <= q <= 5):
-        raise _invalid("degrees must be between 1 and 5")
-    ctrl = _finite_array(surf.get("control_points"), "surface.control_points", 3)
-    weights = _finite_array(surf.get("weights"), "surface.weights", 2)
-    knots_u = _finite_array(surf.get("knots_u"), "surface.knots_u", 1)
-    knots_v = _finite_array(surf.get("knots_v"), "surface.knots_v", 1)
-    nu, nv, dim = ctrl.shape
-    if dim != 3:
-        raise _invalid("control points must have 3 coordinates")
-    if nu > MAX_NET or nv > MAX_NET:
-        raise _invalid(f"the control net is {nu} x {nv}; at most {MAX_NET} x {MAX_NET} is accepted")
-    if np.abs(ctrl).max() > MAX_CONTROL_MM:
-        raise _invalid(
-            f"control points reach {np.abs(ctrl).max():.3g} mm from the calf frame's origin; a calf record's lie "
-            f"within {MAX_CONTROL_MM:g} mm (mm, in the calf frame: B at the origin, z along the leg)")
-    if nu <= p or nv <= q:
-        raise _invalid(f"need more than degree control points in each direction, got {nu} x {nv}")
-    if weights.shape != (nu, nv):
-        raise _invalid(f"weights must be {nu} x {nv} like the control net, got {weights.shape}")
-    if (weights <= 0).any():
-        raise _invalid("weights must be positive")
-    for name, knots, n, deg in (("knots_u", knots_u, nu, p), ("knots_v", knots_v, nv, q)):
-        if len(knots) != n + deg + 1:
-            raise _invalid(f"surface.{name} must have {n + deg + 1} entries (n + degree + 1), got {len(knots)}")
-        if np.any(np.diff(knots) < 0):
-            raise _invalid(f"surface.{name} must be non-decreasing")
-        if knots[n] <= knots[deg]:
-            raise _invalid(f"surface.{name} has an empty domain")
-    periodic = bool(surf.get("periodic_u", False))
-    if periodic and not np.allclose(ctrl[:p], ctrl[nu - p :], atol=1e-6 * max(1.0, float(np.abs(ctrl).max()))):
-        raise _invalid("periodic_u is set but the first degree_u control columns do not repeat at the end")
-    try:  # the basis contract: u periodic or clamped, v clamped, no break inside
-        surface = NurbsSurface(p, q, knots_u, knots_v, ctrl, weights, periodic)
-    except ValueError as broken:
-        raise _invalid(f"surface: {broken}") from None
-    check_surface_cost(surface)  # before anything is evaluated
-    _check_closed_around(surface)
+    surface = parse_surface(surf)
+    leg_model = parse_leg_model(data.get("leg_model")) if version >= 3 else None
     frame = _finite_array(data.get("frame", np.eye(4).tolist()), "frame", 2)
     if frame.shape != (4, 4) or not np.allclose(frame[3], [0, 0, 0, 1]):
         raise _invalid("frame must be a 4x4 homogeneous matrix with last row 0 0 0 1")
@@ -384,6 +327,7 @@ def parse_record(data: dict) -> CalfRecord:
         raise _invalid("side_inference must be an object or null")
     return CalfRecord(
         chart=_parse_chart(data.get("chart")) if version >= 3 else {},
+        leg_model=leg_model,
         schema_version=int(version),
         warnings=tuple(warnings),
         side_inference=side_inference,
@@ -395,3 +339,38 @@ def parse_record(data: dict) -> CalfRecord:
         fit=data.get("fit") or {},
         scan=data.get("scan") or {},
     )
+
+
+def parse_leg_model(entry) -> LegModelRecord | None:
+    """``leg_model`` (version 3, optional): {reason} when there is none, else {range "B-G",
+    grid, layers_mm {B..G}, correction_rms_mm, surface_to_scan, surface} whose surface is
+    validated as the calf's is (:func:`app.records.surface_codec.parse_surface`)."""
+    if entry is None:
+        return None
+    if not isinstance(entry, dict):
+        raise _invalid("leg_model must be an object or null")
+    if entry.get("surface") is None:
+        reason = entry.get("reason")
+        if not isinstance(reason, str) or not reason or len(reason) > 500:
+            raise _invalid("leg_model without a surface needs its reason (a sentence of at most 500 characters)")
+        return LegModelRecord(None, reason)
+    if not isinstance(entry["surface"], dict):
+        raise _invalid("leg_model.surface must be an object")
+    try:
+        surface = parse_surface(entry["surface"])
+    except FitFailure as failure:
+        raise _invalid(f"leg_model.{failure.detail}") from None
+    layers = entry.get("layers_mm") or {}
+    if not isinstance(layers, dict) or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+                                               and abs(v) <= MAX_CONTROL_MM for v in layers.values()):
+        raise _invalid(f"leg_model.layers_mm must map points to heights within {MAX_CONTROL_MM:g} mm")
+    rms = entry.get("correction_rms_mm") or []
+    if not isinstance(rms, list) or not all(isinstance(v, (int, float)) and math.isfinite(v) for v in rms):
+        raise _invalid("leg_model.correction_rms_mm must be a list of numbers")
+    grid, skin = entry.get("grid"), entry.get("surface_to_scan") or {}
+    if grid is not None and (not isinstance(grid, str) or len(grid) > 16):
+        raise _invalid("leg_model.grid must be ALONGxAROUND")
+    if not isinstance(skin, dict):
+        raise _invalid("leg_model.surface_to_scan must be an object")
+    return LegModelRecord(surface, None, {str(k): float(v) for k, v in layers.items()}, grid, tuple(map(float, rms)), skin)
+

@@ -86,19 +86,28 @@ class RecordService:
         return rows, next_cursor
 
     @staticmethod
-    def surface(record: Record, file_format: str, around: int, along: int) -> bytes:
-        """The record's surface: tessellated (around x along samples) in scan coordinates
-        for a mesh format; exact, in the calf frame (mm), for a CAD format."""
+    def surface(record: Record, file_format: str, around: int, along: int, part: str = "calf") -> bytes:
+        """The record's surface (``part`` "calf", B to D) or its leg model ("leg", B to G):
+        tessellated (around x along samples) in scan coordinates for a mesh format; exact,
+        in the calf frame (mm), for a CAD format.  NotFound leg_model_not_found, saying
+        why, for a record without a leg model."""
+        parsed = _parse(record.body)
+        surface = parsed.surface
+        if part == "leg":
+            leg = parsed.leg_model
+            if leg is None or leg.surface is None:
+                why = leg.reason if leg is not None else "the record was fitted before leg models were made: fit the scan again"
+                raise NotFound(f"record {record.id!r} has no leg model from B to G: {why}", code="leg_model_not_found")
+            surface = leg.surface
         if file_format in CAD_MEDIA_TYPES:
-            return export_surface(_parse(record.body).surface, file_format)
+            return export_surface(surface, file_format)
         for name, value, (lo, hi) in (("around", around, AROUND_RANGE), ("along", along, ALONG_RANGE)):
             if not lo <= value <= hi:
                 raise Unprocessable(f"{name} must be between {lo} and {hi}, not {value}", code="invalid_density")
         if around * along > MAX_SURFACE_SAMPLES:
             raise Unprocessable(f"around x along is {around * along}; at most {MAX_SURFACE_SAMPLES} samples per export",
                                 code="invalid_density")
-        parsed = _parse(record.body)
-        return export_mesh(surface_mesh(parsed.surface, parsed.frame, n_u=around, n_v=along), file_format)
+        return export_mesh(surface_mesh(surface, parsed.frame, n_u=around, n_v=along), file_format)
 
     def measurements(self, record_id: str, extra_heights: list[float]) -> dict:
         record = self.get(record_id)
@@ -165,8 +174,9 @@ def record_chart(parsed: CalfRecord, stocking_type: str = "AG") -> list[dict]:
             for m in chart_of_record(parsed.landmarks, sole, stocking_type, foot)]
 
 
-def surface_etag(record_etag_value: str, file_format: str, around: int, along: int) -> str:
-    return hashlib.sha256(f"{record_etag_value}:{file_format}:{around}:{along}".encode()).hexdigest()[:40]
+def surface_etag(record_etag_value: str, file_format: str, around: int, along: int, part: str = "calf") -> str:
+    key = f"{record_etag_value}:{file_format}:{around}:{along}" + ("" if part == "calf" else f":{part}")  # calf: as before
+    return hashlib.sha256(key.encode()).hexdigest()[:40]
 
 
 def encode_cursor(created_at: datetime, record_id: str) -> str:

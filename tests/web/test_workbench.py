@@ -157,6 +157,11 @@ def test_a_clinic_uploads_a_leg_measures_designs_and_deletes(served, page, tmp_p
     # the BodyParts3D leg reaches the hip: the thigh-high points too
     for point in ("cE", "cF", "cG", "lG"):
         assert page.locator(f"#order-points tr[data-point={point}]").get_attribute("data-measured") == "yes"
+    # ... and so the leg model from B to G, downloadable like the calf
+    with page.expect_download() as leg_download:
+        page.get_by_role("button", name="Leg STL").click()
+    assert Path(leg_download.value.path()).read_bytes()[80:84] != b"\0\0\0\0"  # a binary STL with triangles
+    assert leg_download.value.suggested_filename.startswith("leg-")
     page.get_by_label("Error colours (distance to the scan)").check()
     page.wait_for_timeout(500)
     assert canvas_has_a_picture(page, "#record-viewer")

@@ -30,6 +30,8 @@ from app.geometry.anatomy.landmarks import (
 )
 from app.geometry.anatomy.thigh import ThighMeasures, thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
+from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
@@ -49,7 +51,6 @@ from app.geometry.spline.skin_distance import OFF_SKIN_MM, SkinDistance, surface
 #: is in the hundreds: E is then the strays' and known to ~5% only
 MAX_ERROR_POINTS = 20_000
 
-SURFACE_MODES = ("paper", "paper_stacked", "lsq")
 #: an lsq net with fewer scan points per control point than this is warned about: a
 #: least-squares fit averages noise over the points of each control point's support
 #: (16 basis functions overlap a point in a bicubic net, so each control point sees
@@ -69,45 +70,6 @@ MIN_SECTOR_COVERAGE = 0.6
 #: below this density (the slabs are then thicker than 8 mm), a cloud's girths are
 #: warned about: a thick slab at the ankle minimum reads the wider leg above and below
 SPARSE_CLOUD_POINTS_PER_MM = 18.0
-
-
-@dataclass(frozen=True)
-class FitOptions:
-    """Options of a fit.
-
-    side : "left" | "right" | None  - which leg of a body; recorded for a leg scan.
-    points_per_layer : m, the shared feature angles per layer (paper: 8 or 15).
-    n_sections : resampled sections between B and D (paper: 200).
-    section_spacing_mm : if given, sections every this many mm instead (e.g. 1.0).
-    n_angles : rays per section (paper: 72, i.e. 5 degrees).
-    mode : "paper" (7 x m interpolation), "paper_stacked", or "lsq" (least squares on
-        all the calf's points, :mod:`app.geometry.spline.lsq`).
-    grid : the lsq control net, "ALONGxAROUND" (default 7x15, the paper's 105 points).
-    """
-
-    side: str | None = None
-    points_per_layer: int = 15
-    n_sections: int = 200
-    section_spacing_mm: float | None = None
-    n_angles: int = 72
-    mode: str = "paper"
-    grid: str = "7x15"
-
-    def validate(self) -> None:
-        if self.side not in (None, "left", "right"):
-            raise FitFailure(FailureReason.INVALID_OPTION, f"side must be left or right, not {self.side!r}")
-        if not 4 <= self.points_per_layer <= 36:
-            raise FitFailure(FailureReason.INVALID_OPTION, "points per layer must be between 4 and 36 (paper: 8 or 15)")
-        if not 20 <= self.n_sections <= 2000:
-            raise FitFailure(FailureReason.INVALID_OPTION, "sections must be between 20 and 2000")
-        if self.section_spacing_mm is not None and not 0.2 <= self.section_spacing_mm <= 20:
-            raise FitFailure(FailureReason.INVALID_OPTION, "section spacing must be 0.2-20 mm")
-        if self.mode not in SURFACE_MODES:
-            raise FitFailure(FailureReason.INVALID_OPTION, f"mode must be one of {', '.join(SURFACE_MODES)}")
-        if self.mode == "lsq":
-            LsqGrid.parse(self.grid)
-        if self.n_angles not in (36, 72, 144, 360):
-            raise FitFailure(FailureReason.INVALID_OPTION, "angles per section must be 36, 72, 144 or 360")
 
 
 @dataclass(frozen=True)
@@ -133,6 +95,8 @@ class FitResult:
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
     foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
     thigh: ThighMeasures | None = None  # cE, cF, cG (app.geometry.anatomy.thigh) when measured
+    #: the leg's surface from B to G when the scan reaches G (app.geometry.fit.leg_model), or why not
+    leg_model: LegModelOutcome | None = None
 
     @property
     def warnings(self) -> list[str]:
@@ -219,6 +183,9 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
     result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm),
                                  thigh=thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces)))
     result.timings["chart_points"] = time.perf_counter() - measuring
+    modelling = time.perf_counter()
+    result = dataclasses.replace(result, leg_model=leg_model_of(local, leg.faces, result.landmarks, result.thigh))
+    result.timings["leg_model"] = time.perf_counter() - modelling
     return result
 
 

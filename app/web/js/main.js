@@ -238,7 +238,13 @@ async function recordScreen(id) {
     MESH_FORMATS.map((f) => h('button', { class: 'secondary', type: 'button', text: f.toUpperCase(),
       onclick: () => guarded(() => download(`/records/${id}/surface?format=${f}`, `calf-${id.slice(0, 8)}.${f}`)) })),
     Object.entries(CAD_FORMATS).map(([f, ext]) => h('button', { class: 'secondary', type: 'button', text: `${f.toUpperCase()} (exact)`,
-      onclick: () => guarded(() => download(`/records/${id}/surface?format=${f}`, `calf-${id.slice(0, 8)}.${ext}`)) })));
+      onclick: () => guarded(() => download(`/records/${id}/surface?format=${f}`, `calf-${id.slice(0, 8)}.${ext}`)) })),
+    // the leg model from B to G when the scan reached the top of the thigh, else why not
+    record.leg_model && record.leg_model.surface
+      ? h('div', { id: 'leg-model-downloads' }, h('h3', { text: 'The leg, B to G (least squares)' }),
+        ['stl', 'glb', ...Object.keys(CAD_FORMATS)].map((f) => h('button', { class: 'secondary', type: 'button', text: `Leg ${f.toUpperCase()}`,
+          onclick: () => guarded(() => download(`/records/${id}/surface?format=${f}&part=leg`, `leg-${id.slice(0, 8)}.${CAD_FORMATS[f] || f}`)) })))
+      : h('p', { class: 'muted', id: 'leg-model-downloads', text: `No leg model above the calf${record.leg_model ? `: ${record.leg_model.reason}` : ''}.` }));
   const designList = h('div', { class: 'card' }, h('h2', { text: 'Stocking designs' }),
     designs.length ? h('ul', {}, designs.map((d) => h('li', {}, h('a', { href: `#/designs/${d.id}`,
       text: `${d.inputs.standard} ${d.inputs.compression_class ?? 'explicit targets'} — ${new Date(d.created_at).toLocaleString()}` }), ' ',
