@@ -136,10 +136,10 @@ def _distances_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndar
 
 
 def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray | None,
-                    low_mm: float, high_mm: float) -> SkinDistance:
+                    low_mm: float, high_mm: float, row_spacing_mm: float = ROW_SPACING_MM) -> SkinDistance:
     """Surface -> scan distances (module docstring).  points (n, 3) calf-frame mm, faces
     (f, 3) or None; the scan's skin counts between ``low_mm`` and ``high_mm`` (and
-    :data:`MARGIN_MM` beyond)."""
+    :data:`MARGIN_MM` beyond); a ring of samples every ``row_spacing_mm`` of height."""
     if faces is not None and len(faces):  # only the vertices of triangles: a hole's vertices are no skin
         # ... and only the triangles near the calf: a sample's nearest vertices lie within
         # its distance to the skin, so beyond MARGIN_MM + SEARCH_REACH_MM of the calf's
@@ -152,7 +152,7 @@ def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray
         points, faces = points[used], inverse.reshape(faces.shape)
     u0, u1 = surface.domain_u
     v0, v1 = surface.domain_v
-    rows = max(int(np.ceil((high_mm - low_mm) / ROW_SPACING_MM)) + 1, 8)
+    rows = max(int(np.ceil((high_mm - low_mm) / row_spacing_mm)) + 1, 8)
     u = u0 + (u1 - u0) * np.arange(SAMPLES_AROUND) / SAMPLES_AROUND
     v = np.linspace(v0, v1, rows)
     uu, vv = np.meshgrid(u, v, indexing="ij")
