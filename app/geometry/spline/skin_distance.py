@@ -112,12 +112,15 @@ def _points_on_triangles(vertices: np.ndarray, faces: np.ndarray, low_mm: float,
     area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
     steps = np.clip(np.ceil(np.sqrt(2.0 * area) / SKIN_SAMPLE_MM).astype(np.int64), 1, 16)
     total = int((steps * (steps + 1) // 2).sum())
+    # the corners, each vertex once (a vertex is the corner of ~6 triangles: the k-d tree
+    # over them is 6x smaller, the nearest skin point the same)
+    corners = vertices[np.unique(faces)]
     if total > MAX_SKIN_SAMPLES:  # dense meshes: the corners are enough
-        return np.concatenate([a, b, c])
-    out = [a, b, c]
+        return corners
+    out = [corners]
     for n in np.unique(steps[steps > 1]):  # one lattice per subdivision level (a few levels)
         i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
-        keep = i + j <= n
+        keep = (i + j <= n) & (i + j > 0) & (i < n) & (j < n)  # the corners are in already
         wb, wc = (i[keep] / n)[None, :, None], (j[keep] / n)[None, :, None]
         pick = steps == n
         out.append((a[pick, None] * (1 - wb - wc) + b[pick, None] * wb + c[pick, None] * wc).reshape(-1, 3))
