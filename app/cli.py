@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from app.cad import CAD_FORMATS
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import FitFailure
 
 
 def _fail(exc: FitFailure) -> int:
@@ -122,13 +122,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
         record = _load_record(args.record)
     except FitFailure as exc:
         return _fail(exc)
-    surface = record.surface
-    if args.part == "leg":  # the leg model from B to G (app.geometry.fit.leg_model)
-        leg = record.leg_model
-        if leg is None or leg.surface is None:
-            why = leg.reason if leg is not None else "the record was fitted before leg models were made: fit the scan again"
-            return _fail(FitFailure(FailureReason.INVALID_RECORD, f"the record has no leg model from B to G: {why}"))
-        surface = leg.surface
+    try:
+        surface = record.surface_of(args.part)  # the calf, or the leg model from B to G
+    except FitFailure as exc:
+        return _fail(exc)
     if args.format in CAD_FORMATS:
         from app.cad import export_surface
 

@@ -108,6 +108,17 @@ class CalfRecord:
     chart: dict = field(default_factory=dict)  # version 3: foot_length, cA, cY (module docstring)
     leg_model: LegModelRecord | None = None  # version 3: the surface from B to G, or why there is none
 
+    def surface_of(self, part: str) -> NurbsSurface:
+        """The surface of ``part``: "calf" (the paper's, B to D) or "leg" (the leg model,
+        B to G); FitFailure INVALID_RECORD saying why a record has no leg model."""
+        if part != "leg":
+            return self.surface
+        if self.leg_model is None or self.leg_model.surface is None:
+            why = (self.leg_model.reason if self.leg_model is not None
+                   else "the record was fitted before leg models were made: fit the scan again")
+            raise _invalid(f"the record has no leg model from B to G: {why}")
+        return self.leg_model.surface
+
     def to_dict(self) -> dict:
         extra: dict = {}
         if self.schema_version >= 2:
@@ -171,7 +182,7 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
     leg = result.leg_model
     leg_model = None if leg is None else (
         LegModelRecord(None, leg.reason) if leg.model is None else
-        LegModelRecord(leg.model.fit.surface, None, **{k: v for k, v in leg.model.as_dict().items() if k != "range"}))
+        LegModelRecord(leg.model.fit.surface, None, **leg.model.as_dict()))
     return CalfRecord(
         leg_model=leg_model,
         surface=result.surface,

@@ -7,7 +7,7 @@ import json
 
 from app.geometry.anatomy.landmarks import LANDMARK_NAMES as LANDMARKS
 from app.records.codec import CalfRecord
-from app.services.designs import compute_design, inputs_from_request
+from app.services.designs import band_text, compute_design, foot_text, inputs_from_request
 
 
 def request_from_args(args: argparse.Namespace) -> dict:
@@ -61,19 +61,11 @@ def summary_table(result: dict) -> str:
             lines.append(f"{name:3} {level['height_mm']:6.0f} {level['mean_pressure_mmHg']:6.1f} "
                          f"(target {level['target_mmHg']:.1f})  L {level['stretched_circumference_mm']:6.0f}  "
                          f"L0 {level['relaxed_circumference_mm']:6.0f}  strain {level['strain']:6.1%}")
-    foot = result.get("foot") or {}
-    if foot.get("designed"):
-        for row in (r for r in result["knitting_spec"] if r.get("part") == "foot"):
-            lines.append(f"foot {row['point']:3} {row['predicted_mean_mmHg']:6.1f} mmHg  L {row['stretched_circumference_mm']:6.0f}  "
-                         f"L0 {row['relaxed_circumference_mm']:6.0f}  strain {row['strain']:6.1%}")
-        length = foot.get("knitted_length_mm")
-        lines.append(f"foot: {foot['length_rule']}" + (f" ({length:.0f} mm)" if length is not None else ""))
-    elif foot:
-        lines.append(f"foot: not designed: {foot.get('reason')}")
-    band = result.get("top_band")
-    if band:
-        lines.append(f"top band {band['width_mm']:g} mm ({band['from_height_mm']:.0f}-{band['to_height_mm']:.0f} mm): "
-                     f"L0 {band['relaxed_circumference_mm']:.0f} mm, {band['band_mmHg'][0]:.1f}-{band['band_mmHg'][1]:.1f} mmHg")
+    for row in (r for r in result["knitting_spec"] if r.get("part") == "foot"):
+        lines.append(f"foot {row['point']:3} {row['predicted_mean_mmHg']:6.1f} mmHg  L {row['stretched_circumference_mm']:6.0f}  "
+                     f"L0 {row['relaxed_circumference_mm']:6.0f}  strain {row['strain']:6.1%}")
+    lines.append(f"foot: {foot_text(result.get('foot'))}")
+    lines.append(f"top band: {band_text(result.get('top_band'))}")
     lines.append(f"verdict: {result['verdict']}" + "".join(f"\n  - {r}" for r in result.get("verdict_reasons") or []))
     if result["side_assumed"]:
         lines.append("side unknown: medial/lateral assume a right leg")

@@ -114,28 +114,32 @@ def _spec_rows(design: StockingDesign) -> list[dict]:
     cY: part "foot"), the graded rows (part "leg"; ``point`` names a landmark's or a thigh
     level's row) and those the top band replaces (part "top band": the band's relaxed
     circumference and what it gives there)."""
-    rows = [{"part": "foot", "point": r.point, "height_mm": r.height_mm, "target_mmHg": r.target_mmhg,
-             "stretched_circumference_mm": r.stretched_circumference_mm, "tension_N_per_cm": r.tension_n_per_cm,
-             "strain": r.strain, "relaxed_circumference_mm": r.relaxed_circumference_mm,
-             "predicted_mean_mmHg": r.predicted_mean_mmhg} for r in (design.foot.part.rows if design.foot.part else ())]
+    rows = [_spec_row("foot", r.point, r.height_mm, r.target_mmhg, r.stretched_circumference_mm, r.tension_n_per_cm,
+                      r.strain, r.relaxed_circumference_mm, r.predicted_mean_mmhg)
+            for r in (design.foot.part.rows if design.foot.part else ())]
     spec, band = design.knitting_spec, design.top_band
     named = {round(at.height_mm, 6): name for name, at in design.landmarks.items()}
     if design.thigh is not None:
         named.update({round(level.height_mm, 6): name for name, level in design.thigh.levels.items()})
-    in_band = {} if band is None else {int(i): k for k, i in enumerate(band.replaces)}
+    in_band = {} if band is None else {int(i): k for k, i in enumerate(band.replaces)}  # spec row -> band row
     for i, (h, t, L, T, e, L0, m) in enumerate(zip(spec.heights_mm, spec.target_mmhg, spec.stretched_circumference_mm,
                                                    spec.tension_n_per_cm, spec.strain, spec.relaxed_circumference_mm,
                                                    spec.predicted_mean_pa)):
-        row = {"part": "leg", "point": named.get(round(float(h), 6)), "height_mm": float(h), "target_mmHg": float(t),
-               "stretched_circumference_mm": float(L), "tension_N_per_cm": float(T), "strain": float(e),
-               "relaxed_circumference_mm": float(L0), "predicted_mean_mmHg": float(m / PA_PER_MMHG)}
-        if band is not None and i in in_band:
+        point = named.get(round(float(h), 6))
+        if i in in_band:  # the band's one relaxed circumference and what it gives there
             k = in_band[i]
-            row.update(part="top band", relaxed_circumference_mm=band.relaxed_circumference_mm,
-                       strain=float(band.band_strain[k]), tension_N_per_cm=float(band.band_tension_n_per_cm[k]),
-                       predicted_mean_mmHg=float(band.band_pressure_mmhg[k]))
-        rows.append(row)
+            rows.append(_spec_row("top band", point, h, t, L, band.band_tension_n_per_cm[k], band.band_strain[k],
+                                  band.relaxed_circumference_mm, band.band_pressure_mmhg[k]))
+        else:
+            rows.append(_spec_row("leg", point, h, t, L, T, e, L0, m / PA_PER_MMHG))
     return rows
+
+
+def _spec_row(part: str, point: str | None, height, target, stretched, tension, strain, relaxed, predicted_mmhg) -> dict:
+    """One row of the knitting specification's wire form (app.api.schemas.KnittingRow)."""
+    return {"part": part, "point": point, "height_mm": float(height), "target_mmHg": float(target),
+            "stretched_circumference_mm": float(stretched), "tension_N_per_cm": float(tension), "strain": float(strain),
+            "relaxed_circumference_mm": float(relaxed), "predicted_mean_mmHg": float(predicted_mmhg)}
 
 
 def _ends_document(design: StockingDesign) -> dict:
@@ -259,7 +263,8 @@ def fabric_text(fabric: dict) -> str:
     return f"measured tension-strain table of {len(fabric.get('table') or [])} rows"
 
 
-def _foot_text(foot: dict | None) -> str:
+def foot_text(foot: dict | None) -> str:
+    """A design's foot (its ``foot`` document) in words: the CSV header, the order, the CLI."""
     if not foot:
         return "not designed (a design made before the foot was)"
     if not foot.get("designed"):
@@ -269,7 +274,8 @@ def _foot_text(foot: dict | None) -> str:
             + (f"knitted length {length:.0f} mm ({foot['length_rule']})" if length is not None else foot["length_rule"]))
 
 
-def _band_text(band: dict | None) -> str:
+def band_text(band: dict | None) -> str:
+    """A design's top band (its ``top_band`` document) in words, or "none"."""
     if not band:
         return "none"
     return (f"{band['width_mm']:g} mm wide from {band['from_height_mm']:.0f} to {band['to_height_mm']:.0f} mm, "
@@ -298,8 +304,8 @@ def knitting_csv(design: Design) -> str:
         "standard and class": f"{klass['standard']} class {klass['class']}" if klass else "explicit targets",
         "fabric": fabric_text(result.get("fabric") or {}),
         "verdict": result.get("verdict") or ("pass" if result.get("passed") else "fail"),
-        "foot": _foot_text(result.get("foot")),
-        "top band": _band_text(result.get("top_band")),
+        "foot": foot_text(result.get("foot")),
+        "top band": band_text(result.get("top_band")),
         "units": "mm, mmHg, N/cm",
     }
     for key, value in header.items():

@@ -19,6 +19,8 @@ from reportlab.lib.styles import getSampleStyleSheet
 from reportlab.lib.units import mm as MM
 from reportlab.platypus import KeepTogether, Paragraph, SimpleDocTemplate, Spacer, Table, TableStyle
 
+from app.services.designs import band_text, foot_text
+
 #: the diagram's box (points) and the drawn leg's scale: 1 mm of leg is SCALE points
 DIAGRAM_W, DIAGRAM_H = 70 * MM, 100 * MM
 GRID = colors.HexColor("#b8c0cc")
@@ -134,22 +136,9 @@ def _size_text(decision: dict) -> str:
 
 
 def _ends_lines(order: dict) -> list[str]:
-    """The foot's and the top band's lines above the knitting table."""
-    lines = []
-    foot, band = order.get("foot"), order.get("top_band")
-    if foot and foot.get("designed"):
-        length = foot.get("knitted_length_mm")
-        lines.append(f"Foot: {foot['toe']} toe, knitted length "
-                     + (f"{length:.0f} mm" if length is not None else "to be measured") + f" ({foot['length_rule']}); "
-                     f"rows at {', '.join(foot['points'])} for B's pressure.")
-    elif foot:
-        lines.append(f"Foot: not designed: {foot.get('reason')}")
-    if band:
-        lines.append(f"Top band: {band['width_mm']:g} mm wide ({band['from_height_mm']:.0f}-{band['to_height_mm']:.0f} mm "
-                     f"above B), relaxed circumference {band['relaxed_circumference_mm']:.0f} mm, "
-                     f"{band['band_mmHg'][0]:.1f}-{band['band_mmHg'][1]:.1f} mmHg (graded rows "
-                     f"{band['graded_mmHg'][0]:.1f}-{band['graded_mmHg'][1]:.1f} mmHg): nowhere tighter than the stocking below.")
-    return lines
+    """The foot's and the top band's lines above the knitting table (as the CSV's header
+    says them: app.services.designs.foot_text, band_text)."""
+    return [f"Foot: {foot_text(order.get('foot'))}.", f"Top band: {band_text(order.get('top_band'))}."]
 
 
 def _knitting_table(order: dict, small) -> Table:

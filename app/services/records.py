@@ -92,13 +92,10 @@ class RecordService:
         in the calf frame (mm), for a CAD format.  NotFound leg_model_not_found, saying
         why, for a record without a leg model."""
         parsed = _parse(record.body)
-        surface = parsed.surface
-        if part == "leg":
-            leg = parsed.leg_model
-            if leg is None or leg.surface is None:
-                why = leg.reason if leg is not None else "the record was fitted before leg models were made: fit the scan again"
-                raise NotFound(f"record {record.id!r} has no leg model from B to G: {why}", code="leg_model_not_found")
-            surface = leg.surface
+        try:
+            surface = parsed.surface_of(part)
+        except FitFailure as missing:
+            raise NotFound(f"record {record.id!r}: {missing.detail}", code="leg_model_not_found") from None
         if file_format in CAD_MEDIA_TYPES:
             return export_surface(surface, file_format)
         for name, value, (lo, hi) in (("around", around, AROUND_RANGE), ("along", along, ALONG_RANGE)):

@@ -65,8 +65,8 @@ class LegModel:
     skin: SkinDistance
 
     def as_dict(self) -> dict:
-        """The record's ``leg_model`` apart from its surface (the codec writes that)."""
-        return {"range": "B-G", "grid": str(self.fit.grid), "layers_mm": dict(zip(LEG_POINTS, map(float, self.layer_heights_mm))),
+        """The record's ``leg_model`` apart from its surface and range (the codec writes those)."""
+        return {"grid": str(self.fit.grid), "layers_mm": dict(zip(LEG_POINTS, map(float, self.layer_heights_mm))),
                 "correction_rms_mm": list(self.fit.rms_mm), "surface_to_scan": self.skin.as_dict()}
 
 
