@@ -36,9 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
-from scipy.stats import binned_statistic
 
-from app.geometry.sections import mesh_section_segments
+from app.geometry.sections import group_median, mesh_section_segments
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -47,12 +46,20 @@ MIN_FOOT_MM = 150.0
 #: the ball girth's window, as fractions of the foot length from the heel (module docstring)
 BALL_WINDOW = (0.62, 0.78)
 BALL_STEP_MM = 2.0
+#: the ball girth is read as a tape band is (app.geometry.sections.TAPE_BAND_OFFSETS_MM):
+#: the median of this many planes BALL_STEP_MM apart round each (+-4 mm).  The largest of
+#: single-plane girths is biased up by their noise (a cloud's slab reads each plane 1-2 mm
+#: wide of the mesh's), the largest of band medians much less; at a maximum the girth
+#: changes only to second order across the band
+BALL_BAND_PLANES = 5
 #: the heel-instep planes' tilt from the floor and its step, degrees; where their loop's
 #: far end must lie (over the front of the ankle: the talus neck is 0.3-0.45 of the foot
 #: length forward of the heel), fractions of the foot length from the heel
 INSTEP_TILT_DEG = (20.0, 75.0)
 INSTEP_STEP_DEG = 2.5
 INSTEP_WINDOW = (0.15, 0.55)
+#: cY is read over this many neighbouring tilts (+-2.5 degrees), as cA over its band
+INSTEP_BAND_PLANES = 3
 #: an end whose section 6 mm inside is above this share of the ball girth was cut, not tapered
 END_TAPER_SHARE = 0.7
 END_INSET_MM = 6.0
@@ -146,7 +153,13 @@ def _loop_girth(section: np.ndarray) -> float:
     bins of angle round their centroid (about 3 points a bin, at most 360; more than
     LOOP_MAX_EMPTY of them empty is no closed section: NaN), smoothed over
     +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
-    excursions); the tape is the convex hull of that loop.  (The calf's polar fit,
+    excursions); the tape is the convex hull of the filled bins' points.  An empty run of
+    bins is bridged by the hull's straight chord, as a tape bridges it: a sole the floor's
+    removal took off (the plantar forefoot is flat and ~80 mm wide, so it leaves one wide
+    gap) is the flat the foot stood on, and interpolating the radius across the gap
+    instead would bow the loop out round the centroid (+6 mm on a generated forefoot).
+    The smoothing is a normalised convolution over the filled bins only, so a gap's edge
+    is not pulled out either.  (The calf's polar fit,
     :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
     harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
     if len(section) < 30:
@@ -154,17 +167,36 @@ def _loop_girth(section: np.ndarray) -> float:
     rel = section - section.mean(axis=0)
     angle, radius = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
     bins = int(np.clip(len(section) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
-    median, _, _ = binned_statistic(angle, radius, "median", bins=bins, range=(-np.pi, np.pi))
-    filled = np.isfinite(median)
+    index = np.minimum(((angle + np.pi) * (bins / (2 * np.pi))).astype(np.int64), bins - 1)
+    median, count = group_median(index, radius, bins)
+    filled = count > 0
     if filled.mean() < 1 - LOOP_MAX_EMPTY:
         return float("nan")
-    centres = np.linspace(-np.pi, np.pi, bins + 1)[:-1] + np.pi / bins
-    radii = np.interp(centres, centres[filled], median[filled], period=2 * np.pi)
-    reach = int(round(np.radians(LOOP_SMOOTH_DEG) / (2 * np.pi / bins)))  # none when the bins are as wide
+    # each bin's point at its points' mean angle (a wide bin's few points are not at its centre)
+    centres = np.bincount(index, weights=angle, minlength=bins) / np.maximum(count, 1)
+    radii = np.where(filled, median, 0.0)
+    # whole bins within +-LOOP_SMOOTH_DEG: none once a bin is that wide (a sparse ring's ~3
+    # points a bin are its smoothing; a rounded-up reach of one 7-degree bin would average
+    # over 20 degrees and cut the heel's corner, -5 mm on a cloud scanned sparse on one side)
+    reach = int(np.floor(np.radians(LOOP_SMOOTH_DEG) / (2 * np.pi / bins)))
     if reach:
-        kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
-        radii = np.convolve(np.r_[radii[-reach:], radii, radii[:reach]], kernel, mode="valid")  # circular mean
-    return float(ConvexHull(np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])).area)
+        kernel = np.ones(2 * reach + 1)
+        wrap = lambda a: np.r_[a[-reach:], a, a[:reach]]  # noqa: E731  (circular)
+        weight = np.convolve(wrap(filled.astype(float)), kernel, mode="valid")
+        radii = np.convolve(wrap(radii), kernel, mode="valid") / np.maximum(weight, 1.0)
+    loop = np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])[filled]
+    return float(ConvexHull(loop).area)
+
+
+def _running_median(values: np.ndarray, planes: int) -> np.ndarray:
+    """(k,) the median of each run of ``planes`` (odd) neighbours of ``values`` (k,),
+    ignoring NaN (shorter runs at the ends; NaN where a run has no value)."""
+    half = planes // 2
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(values, half, constant_values=np.nan), planes)
+    out = np.full(len(values), np.nan)
+    some = np.isfinite(windows).any(axis=1)
+    out[some] = np.nanmedian(windows[some], axis=1)
+    return out
 
 
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None) -> FootMeasures:
@@ -204,6 +236,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     if not np.isfinite(window).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
+    window = _running_median(window, BALL_BAND_PLANES)
     best = int(np.nanargmax(window))
     ball = float(window[best])
     cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
@@ -230,8 +263,9 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     back_down = -(axis + up) / np.sqrt(2.0)
     heel = points[int(np.argmax(points @ back_down))]
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
-    best: tuple[float, np.ndarray] | None = None
-    for tilt in tilts:  # ~20 planes, each vectorised over the points
+    girths = np.full(len(tilts), np.nan)
+    centres = np.zeros((len(tilts), 3))
+    for k, tilt in enumerate(tilts):  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
         section = _sections(points, faces, heel, basis, np.array([0.0]), slab_mm)[0]  # once per plane
@@ -243,10 +277,12 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
             continue
         if far[2] > INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:  # the loop reaches the part's cut: not closed
             continue
-        girth = _loop_girth(section)
-        if np.isfinite(girth) and (best is None or girth < best[0]):
-            best = (girth, (heel + far) / 2)
-    if best is None:
+        girths[k], centres[k] = _loop_girth(section), (heel + far) / 2
+    if not np.isfinite(girths).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "
                                             "(a hole or a crop)")
-    return FootPoint("cY", best[0], _xyz(best[1]))
+    # the shortest of the loops, each read as the median of it and its neighbouring tilts:
+    # the least of single loops is biased down by their noise, as the ball girth's largest up
+    smooth = np.where(np.isfinite(girths), _running_median(girths, INSTEP_BAND_PLANES), np.nan)
+    best = int(np.nanargmin(smooth))
+    return FootPoint("cY", float(smooth[best]), _xyz(centres[best]))

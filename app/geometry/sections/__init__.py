@@ -11,11 +11,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.geometry.sections.cloud import slice_points_polar
+from app.geometry.sections.cloud import group_median, slice_points_polar
 from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "mesh_section_segments", "polygon_centroid", "polygon_perimeter", "ray_angles",
+__all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "group_median", "mesh_section_segments", "polygon_centroid",
+           "polygon_perimeter", "ray_angles",
            "slice_mesh_polar", "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is

@@ -77,7 +77,7 @@ WIDEN_BELOW_COVERAGE = 0.9
 WIDEN_FACTOR = 1.5
 
 
-def _group_median(group: np.ndarray, values: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
+def group_median(group: np.ndarray, values: np.ndarray, n_groups: int) -> tuple[np.ndarray, np.ndarray]:
     """Median of ``values`` (m,) within each ``group`` (m,) label < n_groups; and counts.
 
     One argsort of the float key ``group * span + (value - min)`` (span > the values'
@@ -239,7 +239,7 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
     if plane.size == 0:
         return empty
     sub = slice(None, None, CENTRE_STRIDE)
-    centre = np.stack([_group_median(plane[sub], xy[sub, i], k)[0] for i in range(2)], axis=1)
+    centre = np.stack([group_median(plane[sub], xy[sub, i], k)[0] for i in range(2)], axis=1)
     design_out = _fourier_design(angles, harmonics)
     radii = np.full((k, n_angles), np.nan)
     coverage = np.zeros(k)
@@ -254,7 +254,7 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
         theta = np.arctan2(rel[:, 1], rel[:, 0])
         r = np.hypot(rel[:, 0], rel[:, 1])
         bins = np.floor(theta / (2.0 * np.pi / N_BINS) + 0.5).astype(np.int64) % N_BINS
-        bin_radius, bin_count = _group_median(group * N_BINS + bins, r, len(todo) * N_BINS)
+        bin_radius, bin_count = group_median(group * N_BINS + bins, r, len(todo) * N_BINS)
         filled = bin_count.reshape(len(todo), N_BINS) > 0
         coverage[todo] = filled.mean(axis=1)
         coefficients = robust_polar_fit(bin_radius.reshape(len(todo), N_BINS), harmonics,

@@ -107,3 +107,20 @@ def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
                  (mesh.heel_instep_girth, cloud.heel_instep_girth)):
         assert a.value_mm == pytest.approx(b.value_mm, abs=3.0)
     assert result.foot is not None and result.foot.ball_girth.value_mm == pytest.approx(mesh.ball_girth.value_mm)
+
+
+def test_a_sole_taken_by_the_floor_and_a_cloud_sparse_on_one_side_read_as_the_whole_foot():
+    """A floor's removal takes every point within 3 mm of the plane: the ellipsoid's flat
+    bottom leaves one wide gap in each forefoot section, which a tape bridges straight (the
+    flat the foot stood on), not bowed round the section's centre; a cloud sampled 4 times
+    sparser on one side (a scanner's far side) keeps the heel's corner.  Both within 1.5 mm
+    of the whole dense phantom's cA and cY (bowing read cA +6 mm on a generated foot,
+    rounding the smoothing up cut cY -5 mm on a sparse side)."""
+    whole = foot_measures(_phantom(), None, SOLE)
+    points = _phantom()
+    floor_cut = foot_measures(points[points[:, 2] > SOLE + 3.0], None, SOLE)
+    sparse_side = points[(points[:, 0] < 0.0) | (np.random.default_rng(5).random(len(points)) < 0.25)]
+    uneven = foot_measures(sparse_side, None, SOLE)
+    for measured in (floor_cut, uneven):
+        assert measured.ball_girth.value_mm == pytest.approx(whole.ball_girth.value_mm, abs=1.5)
+        assert measured.heel_instep_girth.value_mm == pytest.approx(whole.heel_instep_girth.value_mm, abs=1.5)
