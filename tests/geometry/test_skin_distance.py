@@ -53,3 +53,22 @@ def test_a_hole_in_the_scan_is_not_counted_against_the_surface(skin):
     keep = ~hole[faces].any(axis=1)
     result = surface_to_scan(_tube_surface(50.0, bulge=12.0), vertices, faces[keep], 0.0, 300.0)
     assert result.coverage < 0.97 and not result.off_skin
+
+
+def test_the_closest_point_deep_inside_a_large_triangle_is_found():
+    """A sample 1 mm over a 600 mm triangle whose corners are far, beside a patch of 8 small
+    triangles 5 mm above it: the patch's vertices are the nearest, yet the skin is the
+    large triangle's inside, 1 mm away; its centroid, 70 mm off, is among the nearest
+    centroids (the nearest vertices alone read the patch, 8.9 mm: on BodyParts3D's coarse
+    calf they read a sample on the skin 8.8 mm off)."""
+    from app.geometry.spline.skin_distance import _offsets_to_mesh
+
+    big = np.array([[-300.0, -300.0, 0.0], [300.0, -300.0, 0.0], [0.0, 400.0, 0.0]])
+    grid = np.stack(np.meshgrid(np.arange(8.0, 20.0, 4.0), np.arange(-4.0, 8.0, 4.0), indexing="ij"), -1).reshape(-1, 2)
+    patch = np.column_stack([grid, np.full(len(grid), 5.0)])
+    vertices = np.vstack([big, patch])
+    n = 3  # the patch is a 3 x 3 grid of vertices: two triangles per cell
+    cell = (np.arange(n - 1)[:, None] * n + np.arange(n - 1)[None, :]).ravel() + 3
+    faces = np.vstack([[0, 1, 2], np.column_stack([cell, cell + n, cell + 1]), np.column_stack([cell + 1, cell + n, cell + n + 1])])
+    offset = _offsets_to_mesh(np.array([[0.0, 0.0, 1.0]]), vertices, faces)
+    assert np.linalg.norm(offset[0]) == pytest.approx(1.0) and offset[0][2] == pytest.approx(-1.0)

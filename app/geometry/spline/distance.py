@@ -72,7 +72,14 @@ def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def point_triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Distance from p to triangle (a, b, c), (..., 3) arrays that broadcast -> (...)
-    (Ericson 5.1.5, vectorized).
+    (Ericson 5.1.5, vectorized): the length of :func:`point_triangle_offsets`."""
+    diff = point_triangle_offsets(p, a, b, c)
+    return np.sqrt(_dot(diff, diff))
+
+
+def point_triangle_offsets(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """p minus its closest point on triangle (a, b, c), (..., 3) arrays that broadcast ->
+    (..., 3) mm (Ericson 5.1.5, vectorized).
 
     The Voronoi region of the closest feature (vertex, edge or face) is chosen on arrays
     of barycentric weights (v, w) with closest point ``a + v*ab + w*ac``.
@@ -106,8 +113,7 @@ def point_triangle_distances(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.
     for condition, rv, rw in reversed(regions):
         v = np.where(condition, rv, v)
         w = np.where(condition, rw, w)
-    diff = ap - v[..., None] * ab - w[..., None] * ac
-    return np.sqrt(_dot(diff, diff))
+    return ap - v[..., None] * ab - w[..., None] * ac
 
 
 #: the 2 x 2 quads around a grid vertex, as (row, column) origins in its 3 x 4 neighbourhood
