@@ -46,6 +46,9 @@ KNEE_WINDOW_MM = (20.0, 150.0)
 #: (the knee's crown rises 0.1-0.3, the thigh ~1)
 KNEE_LEVEL_SLOPE = 0.15
 SLOPE_HALF_MM = 10.0
+#: a made-to-measure order's girths are held to this (mm): an E whose height is uncertain
+#: by more than this much of cE is said to be
+GIRTH_TOLERANCE_MM = 3.0
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
 #: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
 #: the skin above it back forward by at least this much, mm
@@ -131,6 +134,8 @@ class ThighMeasures:
     #: girths mm, when G is measured (a thigh-high design knits from it); else empty
     profile_heights_mm: tuple[float, ...] = ()
     profile_girths_mm: tuple[float, ...] = ()
+    #: what the service cannot stand behind in these points (the record's warnings)
+    warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
         out = {"cE": self.knee.as_dict(), "cF": self.mid_thigh.as_dict(), "cG": self.top_of_thigh.as_dict()}
@@ -240,12 +245,24 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     hi = int(off_level[off_level > least].min(initial=len(slope))) - 1
     e = (lo + hi) // 2
     knee = _read_across_tape(_level("E", knee_sections, girth, e), points, faces)  # knee_span: a prefix of heights
+    warnings: tuple[str, ...] = ()
+    spread = (hi - lo) * STEP_MM / 2.0
+    if least in (inside[0], inside[-1]) and knee.height_mm is not None and spread * slope[least] > GIRTH_TOLERANCE_MM:
+        # the least slope at the window's end: the girth has no level crown to find (it
+        # rises all the way through the knee, as on every generated MakeHuman leg), so E
+        # is where a noisy threshold crossing ends the least-rising stretch; said when that
+        # moves cE by more than an order's girths are held to
+        warnings = (f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
+                    f"from {KNEE_WINDOW_MM[0]:.0f} to {KNEE_WINDOW_MM[1]:.0f} mm above D, so E (cE, lE) is the middle "
+                    f"of its least-rising stretch, uncertain by about {spread:.0f} mm of height and "
+                    f"{spread * slope[least]:.0f} mm of cE; a tape at the middle of the patella decides",)
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = _posterior_profile(points, faces, heights)
     g = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
     reason = "the scan stops below the gluteal fold (the top of the thigh)"
     if g is None:
-        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+                             warnings=warnings)
     f = int(round((e + g) / 2))
     profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
     planes = np.unique(np.r_[profile_z, heights[f]])
@@ -254,10 +271,12 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     top_of_thigh = _level("G", sections, planes_girth, int(np.searchsorted(planes, heights[g])))
     if top_of_thigh.girth_mm is None:
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
-        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason))
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+                             warnings=warnings)
     mid_thigh = _read_across_tape(_level("F", sections, planes_girth, int(np.searchsorted(planes, heights[f]))), points, faces)
     top_of_thigh = _read_across_tape(top_of_thigh, points, faces)
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
     profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
-    return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g))
+    return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g),
+                         warnings)

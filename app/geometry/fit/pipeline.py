@@ -180,8 +180,9 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
             result = dataclasses.replace(result, sole_mm=float(heel.min()))
     # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()
-    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm),
-                                 thigh=thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces)))
+    thigh = thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces))
+    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm), thigh=thigh,
+                                 fit_warnings=result.fit_warnings + thigh.warnings)
     result.timings["chart_points"] = time.perf_counter() - measuring
     modelling = time.perf_counter()
     result = dataclasses.replace(result, leg_model=leg_model_of(local, leg.faces, result.landmarks, result.thigh))

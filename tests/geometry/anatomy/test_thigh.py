@@ -33,11 +33,12 @@ def _centre_y(z: np.ndarray) -> np.ndarray:
     return -back + 1.5 * forward
 
 
-def _leg(top: float = FOLD + 80.0, step: float = 1.0) -> np.ndarray:
-    """A cloud (n, 3) calf-frame mm: circles every ``step`` mm from D to ``top`` above D."""
+def _leg(top: float = FOLD + 80.0, step: float = 1.0, radius=_radius) -> np.ndarray:
+    """A cloud (n, 3) calf-frame mm: circles every ``step`` mm from D to ``top`` above D,
+    of ``radius`` (mm, a function of the height above D)."""
     z = np.arange(0.0, top, step)
     angles = np.radians(np.arange(0.0, 360.0, 1.0))
-    r, cy = _radius(z)[:, None], _centre_y(z)[:, None]
+    r, cy = radius(z)[:, None], _centre_y(z)[:, None]
     x, y = r * np.cos(angles), cy + r * np.sin(angles)
     return np.column_stack([x.ravel(), y.ravel(), np.repeat(D + z, len(angles))])
 
@@ -54,6 +55,16 @@ def test_a_leg_of_revolution_gives_its_knee_its_fold_and_the_middle_of_its_thigh
         centre_y = _centre_y(np.array([point.height_mm - D]))[0]
         assert point.at_mm == pytest.approx((0.0, centre_y, point.height_mm), abs=0.5)
         assert point.as_dict()["at_mm"] == list(point.at_mm)
+
+
+def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
+    """A knee whose girth rises through it at 0.7 mm per mm and more (the generated
+    MakeHuman legs' knees): E is read, with a warning that gives its uncertainty; the leg
+    with a crown has none."""
+    rising = thigh_measures(_leg(radius=lambda z: 57.0 + 0.1 * z + 2e-4 * z**2), None, D, knee_bent=False)
+    assert rising.knee.girth_mm is not None and len(rising.warnings) == 1
+    assert "no level crown" in rising.warnings[0] and "mm of cE" in rising.warnings[0]
+    assert thigh_measures(_leg(), None, D, knee_bent=False).warnings == ()
 
 
 def test_a_scan_that_stops_short_or_bends_its_knee_says_why():
