@@ -58,7 +58,8 @@ def chart_points(scan, side: str | None) -> dict:
     sole = record.scan.get("sole_mm")
     measured = chart_of_record(record.landmarks, sole, "AG", record.chart)
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
-            "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS}}
+            "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
+            "e_uncertain": any("no level crown" in w for w in record.warnings)}
 
 
 def _stats(values: list[float]) -> dict:
@@ -109,7 +110,15 @@ def main(legs: int = 8, seed: int = 11) -> dict:
                 diff = scan[point] - ref[point]
                 errors[point].append(diff)
                 by_kind[kind]["girths" if point in GIRTHS else "lengths"].append(diff)
+    # E's warning (app.geometry.anatomy.thigh: a knee without a level crown): is a re-scan
+    # whose cE is off by more than 3 mm warned about?
+    e_off = [(entry["scans"][k].get("e_uncertain", False), abs(entry["scans"][k]["cE"] - entry["scans"]["mesh_clean"]["cE"]))
+             for entry in per_leg for k in RESCAN_KINDS
+             if entry["scans"]["mesh_clean"].get("cE") is not None and entry["scans"][k].get("cE") is not None]
     summary = {
+        "e_warning": {"rescans": len(e_off), "warned": sum(w for w, _ in e_off),
+                      "off_over_3mm": sum(d > 3.0 for _, d in e_off), "off_over_3mm_warned": sum(w and d > 3.0 for w, d in e_off),
+                      "unwarned_p95": _stats([d for w, d in e_off if not w]).get("p95")},
         "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
         "points": {p: {**_stats(errors[p]), "range_p95": _stats(ranges[p]).get("p95"), "not_measured": missing[p]}
                    for p in GIRTHS + LENGTHS},
@@ -172,6 +181,10 @@ def write(summary: dict) -> None:
             continue
         lines.append(f"| {kind} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | "
                      f"{L.get('p95', float('nan')):.2f} | {L.get('max', float('nan')):.2f} |")
+    e = summary["e_warning"]
+    lines += ["", f"E without a level crown (the record warns that cE is uncertain): {e['warned']} of {e['rescans']} re-scans "
+              f"warned; {e['off_over_3mm_warned']} of the {e['off_over_3mm']} whose cE is more than 3 mm off the clean "
+              f"scan's; cE of the unwarned re-scans p95 {e['unwarned_p95'] if e['unwarned_p95'] is None else round(e['unwarned_p95'], 2)} mm."]
     lines += ["", f"Scans that did not fit: {summary['failed'] or 'none'}", "",
               "Real scans (no tape truth; the mesh and its vertices read as a cloud), mm:", "",
               "| scan | read as | " + " | ".join(GIRTHS + LENGTHS) + " |", "|---|---|" + "---|" * len(GIRTHS + LENGTHS)]
