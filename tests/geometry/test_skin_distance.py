@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from app.geometry.spline.lsq import surface_from_net
-from app.geometry.spline.skin_distance import OFF_SKIN_MM, surface_to_scan
+from app.geometry.spline.skin_distance import OFF_SKIN_MM, _offsets_to_mesh, surface_to_scan
 from tests.phantoms import cylinder
 
 
@@ -61,8 +61,6 @@ def test_the_closest_point_deep_inside_a_large_triangle_is_found():
     large triangle's inside, 1 mm away; its centroid, 70 mm off, is among the nearest
     centroids (the nearest vertices alone read the patch, 8.9 mm: on BodyParts3D's coarse
     calf they read a sample on the skin 8.8 mm off)."""
-    from app.geometry.spline.skin_distance import _offsets_to_mesh
-
     big = np.array([[-300.0, -300.0, 0.0], [300.0, -300.0, 0.0], [0.0, 400.0, 0.0]])
     grid = np.stack(np.meshgrid(np.arange(8.0, 20.0, 4.0), np.arange(-4.0, 8.0, 4.0), indexing="ij"), -1).reshape(-1, 2)
     patch = np.column_stack([grid, np.full(len(grid), 5.0)])

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
-from app.geometry.sections import group_median, mesh_section_segments
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, group_median, mesh_section_segments
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -46,12 +46,13 @@ MIN_FOOT_MM = 150.0
 #: the ball girth's window, as fractions of the foot length from the heel (module docstring)
 BALL_WINDOW = (0.62, 0.78)
 BALL_STEP_MM = 2.0
-#: the ball girth is read as a tape band is (app.geometry.sections.TAPE_BAND_OFFSETS_MM):
-#: the median of this many planes BALL_STEP_MM apart round each (+-4 mm).  The largest of
-#: single-plane girths is biased up by their noise (a cloud's slab reads each plane 1-2 mm
-#: wide of the mesh's), the largest of band medians much less; at a maximum the girth
-#: changes only to second order across the band
-BALL_BAND_PLANES = 5
+#: the ball girth is read as a tape band is: the median of the planes BALL_STEP_MM apart
+#: across a tape's width round each (app.geometry.sections.TAPE_BAND_OFFSETS_MM, whose
+#: planes are as far apart: +-4 mm, 5 planes).  The largest of single-plane girths is
+#: biased up by their noise (a cloud's slab reads each plane 1-2 mm wide of the mesh's),
+#: the largest of band medians much less; at a maximum the girth changes only to second
+#: order across the band
+BALL_BAND_PLANES = len(TAPE_BAND_OFFSETS_MM)
 #: the heel-instep planes' tilt from the floor and its step, degrees; where their loop's
 #: far end must lie (over the front of the ankle: the talus neck is 0.3-0.45 of the foot
 #: length forward of the heel), fractions of the foot length from the heel

@@ -106,9 +106,10 @@ def foot_part(chart: dict | None, target_b_mmhg: float, toe: str, fabric: Fabric
     at_mm, reason}} (schema version 3), or why not.  Raises FitFailure
     UNREACHABLE_PRESSURE when the fabric cannot give B's pressure round the foot."""
     chart = chart or {}
-    missing = [p for p in ("cA", "cY") if (chart.get(p) or {}).get("value_mm") is None or not (chart.get(p) or {}).get("at_mm")]
+    entry = {p: chart.get(p) or {} for p in ("cA", "cY", "foot_length")}
+    missing = [p for p in ("cA", "cY") if entry[p].get("value_mm") is None or not entry[p].get("at_mm")]
     if missing:
-        reasons = sorted({str(r) for p in missing if (r := (chart.get(p) or {}).get("reason"))})
+        reasons = sorted({str(r) for p in missing if (r := entry[p].get("reason"))})
         why = "; ".join(reasons) if reasons else "the record was made before the foot was measured (schema version 3)"
         return FootOutcome(None, f"the foot's rows need cA and cY, and {', '.join(missing)} is not measured: {why}; "
                                  "take them by tape (RAL-GZ 387)")
@@ -121,7 +122,7 @@ def foot_part(chart: dict | None, target_b_mmhg: float, toe: str, fabric: Fabric
     rows = tuple(FootRow(p, float(heights[i]), float(target[i]), float(mean[i]), float(girth[i]),
                          float(knitted.relaxed_mm[i]), float(knitted.strain[i]), float(knitted.tension_n_per_cm[i]))
                  for i, p in enumerate(points))
-    length_entry = chart.get("foot_length") or {}
+    length_entry = entry["foot_length"]
     length = length_entry.get("value_mm")
     if length is None:
         return FootOutcome(FootPart(rows, toe, None, None, "the foot length is not measured: take it by tape"))

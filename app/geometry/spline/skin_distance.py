@@ -110,16 +110,15 @@ def _offsets_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndarra
     centroids = vertices[faces].mean(axis=1)
     _, near_faces = cKDTree(centroids).query(samples, k=min(NEAREST_TRIANGLES, len(faces)))
     candidates = np.sort(np.concatenate([table[nearest].reshape(len(samples), -1), near_faces.reshape(len(samples), -1)],
-                                        axis=1), axis=1)  # (s, k * F + t), -1 first
+                                        axis=1), axis=1)  # (s, k * F + t), the -1 padding first
     # each triangle once (a triangle round two of the nearest vertices is also among the
-    # nearest centroids): its repeats and the padding are dropped, the rows packed to the
-    # widest row's distinct triangles (about half the columns)
+    # nearest centroids): its repeats become padding, and a descending sort packs every
+    # row's distinct triangles first, cut to the widest row's (about half the columns)
     candidates[:, 1:][candidates[:, 1:] == candidates[:, :-1]] = -1
+    candidates = -np.sort(-candidates, axis=1)
     valid = candidates >= 0
     width = max(int(valid.sum(axis=1).max()), 1)
-    packed = np.argsort(~valid, axis=1, kind="stable")[:, :width]
-    candidates = np.take_along_axis(candidates, packed, axis=1)
-    valid = candidates >= 0
+    candidates, valid = candidates[:, :width], valid[:, :width]
     tri = faces[np.where(valid, candidates, 0)]  # (s, c, 3)
     away = point_triangle_offsets(samples[:, None, :], vertices[tri[..., 0]], vertices[tri[..., 1]],
                                   vertices[tri[..., 2]])  # (s, c, 3): sample - closest point
