@@ -59,7 +59,20 @@ def chart_points(scan, side: str | None) -> dict:
     measured = chart_of_record(record.landmarks, sole, "AG", record.chart)
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
-            "e_uncertain": any("no level crown" in w for w in record.warnings)}
+            "e_uncertain": any("no level crown" in w for w in record.warnings),
+            "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings)}
+
+
+def _warning_check(per_leg: list[dict], point: str) -> dict:
+    """Is a re-scan whose ``point`` (cE, cG) is more than 3 mm off the clean scan's warned
+    about (the record's warning that the point is uncertain)?"""
+    flag = {"cE": "e_uncertain", "cG": "g_uncertain"}[point]
+    off = [(entry["scans"][k].get(flag, False), abs(entry["scans"][k][point] - entry["scans"]["mesh_clean"][point]))
+           for entry in per_leg for k in RESCAN_KINDS
+           if entry["scans"]["mesh_clean"].get(point) is not None and entry["scans"][k].get(point) is not None]
+    return {"rescans": len(off), "warned": sum(w for w, _ in off), "off_over_3mm": sum(d > 3.0 for _, d in off),
+            "off_over_3mm_warned": sum(w and d > 3.0 for w, d in off),
+            "unwarned_p95": _stats([d for w, d in off if not w]).get("p95")}
 
 
 def _stats(values: list[float]) -> dict:
@@ -110,15 +123,11 @@ def main(legs: int = 8, seed: int = 11) -> dict:
                 diff = scan[point] - ref[point]
                 errors[point].append(diff)
                 by_kind[kind]["girths" if point in GIRTHS else "lengths"].append(diff)
-    # E's warning (app.geometry.anatomy.thigh: a knee without a level crown): is a re-scan
-    # whose cE is off by more than 3 mm warned about?
-    e_off = [(entry["scans"][k].get("e_uncertain", False), abs(entry["scans"][k]["cE"] - entry["scans"]["mesh_clean"]["cE"]))
-             for entry in per_leg for k in RESCAN_KINDS
-             if entry["scans"]["mesh_clean"].get("cE") is not None and entry["scans"][k].get("cE") is not None]
+    # E's and G's warnings (app.geometry.anatomy.thigh: a knee without a level crown, a
+    # smooth gluteal fold): is a re-scan whose cE / cG is off by more than 3 mm warned about?
     summary = {
-        "e_warning": {"rescans": len(e_off), "warned": sum(w for w, _ in e_off),
-                      "off_over_3mm": sum(d > 3.0 for _, d in e_off), "off_over_3mm_warned": sum(w and d > 3.0 for w, d in e_off),
-                      "unwarned_p95": _stats([d for w, d in e_off if not w]).get("p95")},
+        "e_warning": _warning_check(per_leg, "cE"),
+        "g_warning": _warning_check(per_leg, "cG"),
         "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
         "points": {p: {**_stats(errors[p]), "range_p95": _stats(ranges[p]).get("p95"), "not_measured": missing[p]}
                    for p in GIRTHS + LENGTHS},
@@ -181,10 +190,12 @@ def write(summary: dict) -> None:
             continue
         lines.append(f"| {kind} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | "
                      f"{L.get('p95', float('nan')):.2f} | {L.get('max', float('nan')):.2f} |")
-    e = summary["e_warning"]
-    lines += ["", f"E without a level crown (the record warns that cE is uncertain): {e['warned']} of {e['rescans']} re-scans "
-              f"warned; {e['off_over_3mm_warned']} of the {e['off_over_3mm']} whose cE is more than 3 mm off the clean "
-              f"scan's; cE of the unwarned re-scans p95 {e['unwarned_p95'] if e['unwarned_p95'] is None else round(e['unwarned_p95'], 2)} mm."]
+    for point, what in (("cE", "E without a level crown"), ("cG", "G at a smooth gluteal fold")):
+        w = summary["e_warning" if point == "cE" else "g_warning"]
+        p95 = w["unwarned_p95"]
+        lines += ["", f"{what} (the record warns that {point} is uncertain): {w['warned']} of {w['rescans']} re-scans "
+                  f"warned; {w['off_over_3mm_warned']} of the {w['off_over_3mm']} whose {point} is more than 3 mm off the "
+                  f"clean scan's; {point} of the unwarned re-scans p95 {p95 if p95 is None else round(p95, 2)} mm."]
     lines += ["", f"Scans that did not fit: {summary['failed'] or 'none'}", "",
               "Real scans (no tape truth; the mesh and its vertices read as a cloud), mm:", "",
               "| scan | read as | " + " | ".join(GIRTHS + LENGTHS) + " |", "|---|---|" + "---|" * len(GIRTHS + LENGTHS)]

@@ -22,9 +22,13 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
   the thigh's back at the gluteal fold, a corner in the posterior profile (the rearmost
   point of each STEP_MM of height) where the profile's slope turns from the thigh's
   gentle one to the buttock's steep one.  G is that corner: the largest drop of the
-  slope between the thigh's back (100 mm above E) and the buttock's rearmost point.  A
-  scan without a buttock (its rearmost point at the scan's top, as a body's leg cut by
-  the placement below the hips has) has no G.
+  slope between the thigh's back (100 mm above E) and the buttock's rearmost point, read
+  as the middle of the drop's peak (its full width at half maximum: the largest drop
+  alone wanders along a smooth fold's flat peak).  A scan without a buttock (its rearmost
+  point at the scan's top, as a body's leg cut by the placement below the hips has) has
+  no G; a back whose largest bend is under FOLD_MIN_BEND has none found, and says so
+  with the bend it has.  A fold smoother than a crease (its peak wider than a corner's)
+  is measured with a warning that gives how uncertain cG is.
 - **F** is halfway between E and G (RAL-GZ 387: the middle of the thigh).
 """
 
@@ -187,22 +191,43 @@ def _posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np
     return rear
 
 
-def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> int | None:
-    """The index of the gluteal fold in ``heights`` (k,), or None.  ``rear`` (k,) the
+@dataclass(frozen=True)
+class GlutealFold:
+    """The gluteal fold found in the posterior profile: ``index`` into the heights, or
+    None with the ``reason``; ``bend`` the profile's largest bend below the buttock (NaN
+    without a buttock); ``excess_half_width_mm`` how much wider than a corner the bend's
+    peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's own: 0
+    for a crease, the fold's own half extent for a smooth one)."""
+
+    index: int | None
+    reason: str | None
+    bend: float = float("nan")
+    excess_half_width_mm: float = 0.0
+
+
+def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
+    """The gluteal fold in ``heights`` (k,), evenly spaced by STEP_MM.  ``rear`` (k,) the
     posterior profile (rearmost y, mm; NaN where empty).  The buttock is the profile's
     rearmost bulge above ``above_mm``: its rearmost point must lie BUTTOCK_BELOW_TOP_MM
     under the scan's top and the skin above it come forward again (else the scan was cut
     through the buttock or below it).  The fold is the sharpest bend of the profile below
     it: the largest drop of the profile's slope dy/dz (over +-SLOPE_HALF_MM, each side of
-    the height), at least FOLD_MIN_BEND."""
+    the height), at least FOLD_MIN_BEND; G is the middle of the run of heights round it
+    whose bend is at least half the largest (the peak's full width at half maximum).
+
+    How wide the fold is: a corner of the profile (a crease) read by slopes over
+    +-SLOPE_HALF_MM gives a triangular bend peak whose half width at half maximum is
+    SLOPE_HALF_MM; a fold smoother than a crease widens it by its own half extent, over
+    which a tape's "below the fold" is a matter of judgement."""
     lag = int(round(SLOPE_HALF_MM / STEP_MM))
     valid = np.flatnonzero(np.isfinite(rear) & (heights >= above_mm))
+    cut = "the scan stops below the gluteal fold (the top of the thigh)"
     if len(valid) < 6 * lag:
-        return None
+        return GlutealFold(None, cut)
     back = int(valid[np.argmin(rear[valid])])
     above = np.flatnonzero(np.isfinite(rear) & (heights > heights[back]))
     if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
-        return None
+        return GlutealFold(None, cut)
     filled = np.interp(heights, heights[np.isfinite(rear)], rear[np.isfinite(rear)])
     slope = np.full(len(heights), np.nan)
     slope[lag:-lag] = (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
@@ -210,9 +235,23 @@ def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm
     bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
     search = valid[valid < back]
     bend_here = np.where(np.isfinite(bend[search]), bend[search], -np.inf)
-    if not len(search) or bend_here.max() < FOLD_MIN_BEND:
-        return None
-    return int(search[np.argmax(bend_here)])
+    if not len(search) or not np.isfinite(bend_here.max()):
+        return GlutealFold(None, cut)
+    peak = int(np.argmax(bend_here))
+    if bend_here[peak] < FOLD_MIN_BEND:
+        # no crease: either the scan ends below the fold (the back of a thigh runs nearly
+        # straight: a bend of a few hundredths) or the fold is too smooth to place
+        reason = (f"no gluteal fold found: the back of the thigh bends at most {max(bend_here[peak], 0.0):.2f} below "
+                  f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
+                  f"fold is too smooth to place; a tape at the fold decides")
+        return GlutealFold(None, reason, float(bend_here[peak]))
+    low = np.flatnonzero(bend_here < bend_here[peak] / 2)  # the peak's run at half maximum
+    lo = int(low[low < peak].max(initial=-1)) + 1
+    hi = int(low[low > peak].min(initial=len(search))) - 1
+    half_width = (heights[search[hi]] - heights[search[lo]]) / 2 + STEP_MM / 2
+    # G is the middle of that run, as E is of the knee's level stretch: the largest bend
+    # alone wanders along a smooth fold's flat peak with a scanner's noise
+    return GlutealFold(int(search[(lo + hi) // 2]), None, float(bend_here[peak]), max(half_width - SLOPE_HALF_MM, 0.0))
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
@@ -258,11 +297,11 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
                     f"{spread * slope[least]:.0f} mm of cE; a tape at the middle of the patella decides",)
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = _posterior_profile(points, faces, heights)
-    g = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
-    reason = "the scan stops below the gluteal fold (the top of the thigh)"
-    if g is None:
-        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+    fold = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
+    if fold.index is None:
+        return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
                              warnings=warnings)
+    g = fold.index
     f = int(round((e + g) / 2))
     profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
     planes = np.unique(np.r_[profile_z, heights[f]])
@@ -278,5 +317,16 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
     profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
+    # a fold smoother than a crease: G is uncertain by the fold's own half extent, and cG
+    # by that times the thigh's girth slope just below G (a least-squares line over the
+    # profile's last 2 SLOPE_HALF_MM); said when that is more than an order's tolerance
+    near = profile_z >= profile_z[-1] - 2 * SLOPE_HALF_MM
+    girth_slope = float(np.polyfit(profile_z[near], profile_g[near], 1)[0]) if near.sum() >= 2 else 0.0
+    if fold.excess_half_width_mm * abs(girth_slope) > GIRTH_TOLERANCE_MM:
+        warnings = warnings + (
+            f"the gluteal fold is smooth, not a crease: it spans about {fold.excess_half_width_mm:.0f} mm of height "
+            f"either side of G beyond a crease's width, where the thigh's girth changes {abs(girth_slope):.1f} mm per mm, "
+            f"so cG and lG (and F, halfway to it) are uncertain by about "
+            f"{fold.excess_half_width_mm * abs(girth_slope):.0f} mm of cG; a tape just below the fold decides",)
     return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g),
                          warnings)

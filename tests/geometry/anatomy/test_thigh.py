@@ -4,6 +4,8 @@ stop short or have a bent knee, and on real scans."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -33,12 +35,22 @@ def _centre_y(z: np.ndarray) -> np.ndarray:
     return -back + 1.5 * forward
 
 
-def _leg(top: float = FOLD + 80.0, step: float = 1.0, radius=_radius) -> np.ndarray:
+def _smooth_fold_centre_y(z: np.ndarray, width_mm: float = 12.0, back_slope: float = 1.0) -> np.ndarray:
+    """As _centre_y, but the back of the thigh turns into the buttock smoothly: the centre's
+    slope goes from 0 to -``back_slope`` as a logistic of scale ``width_mm`` about the fold
+    (a softplus; its curvature's half width at half maximum is 1.76 ``width_mm``), then
+    forward 1.5 mm per mm from 50 mm above the fold."""
+    below_top = np.minimum(z, FOLD + 50.0) - FOLD
+    back = back_slope * width_mm * np.logaddexp(0.0, below_top / width_mm)
+    return -back + 1.5 * np.clip(z - FOLD - 50.0, 0.0, None)
+
+
+def _leg(top: float = FOLD + 80.0, step: float = 1.0, radius=_radius, centre_y=_centre_y) -> np.ndarray:
     """A cloud (n, 3) calf-frame mm: circles every ``step`` mm from D to ``top`` above D,
-    of ``radius`` (mm, a function of the height above D)."""
+    of ``radius`` (mm, a function of the height above D), centred at (0, ``centre_y``)."""
     z = np.arange(0.0, top, step)
     angles = np.radians(np.arange(0.0, 360.0, 1.0))
-    r, cy = radius(z)[:, None], _centre_y(z)[:, None]
+    r, cy = radius(z)[:, None], centre_y(z)[:, None]
     x, y = r * np.cos(angles), cy + r * np.sin(angles)
     return np.column_stack([x.ravel(), y.ravel(), np.repeat(D + z, len(angles))])
 
@@ -65,6 +77,21 @@ def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
     assert rising.knee.girth_mm is not None and len(rising.warnings) == 1
     assert "no level crown" in rising.warnings[0] and "mm of cE" in rising.warnings[0]
     assert thigh_measures(_leg(), None, D, knee_bent=False).warnings == ()
+
+
+def test_a_smooth_gluteal_fold_is_measured_and_said_to_be_uncertain_and_a_faint_one_is_not_measured():
+    """A fold that turns over a logistic of 12 mm (the generated MakeHuman legs' smooth
+    folds) gives G near the fold with a warning that gives cG's uncertainty; the crease of
+    _centre_y gives none (the test above); a back that bends only 0.2 (no crease) gives no
+    G, and the reason gives the bend found."""
+    smooth = thigh_measures(_leg(centre_y=_smooth_fold_centre_y), None, D, knee_bent=False)
+    assert smooth.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=10.0)
+    assert len(smooth.warnings) == 1 and "gluteal fold is smooth" in smooth.warnings[0]
+    assert "mm of cG" in smooth.warnings[0]
+    faint = thigh_measures(_leg(centre_y=lambda z: _smooth_fold_centre_y(z, 1.0, 0.2)), None, D, knee_bent=False)
+    assert faint.knee.girth_mm is not None and faint.top_of_thigh.girth_mm is None and faint.warnings == ()
+    assert "no gluteal fold found" in faint.top_of_thigh.reason
+    assert 0.1 < float(re.search(r"bends at most ([0-9.]+)", faint.top_of_thigh.reason).group(1)) <= 0.2
 
 
 def test_a_scan_that_stops_short_or_bends_its_knee_says_why():
