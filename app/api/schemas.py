@@ -77,6 +77,9 @@ class ChartPoint(BaseModel):
         None, min_length=3, max_length=3, description="where the tape lies (foot) or its section's centre (thigh), calf frame mm")
     height_mm: float | None = Field(None, ge=-2000, le=2000, description="its height (the thigh's points), calf frame mm")
     reason: str | None = Field(None, max_length=500, description="why it is not measured")
+    uncertainty_mm: float | None = Field(
+        None, ge=0, le=1000, description="how far the girth may be off where the scan leaves the point's place uncertain "
+        "(a knee without a level crown, a smooth gluteal fold: the record's warnings say why); absent: within 3 mm")
 
 
 class ThighProfile(BaseModel):

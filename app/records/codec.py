@@ -210,7 +210,8 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
 
 def _parse_chart(chart) -> dict:
     """The version-3 ``chart``: each point {value_mm (0, MAX_CHART_MM] or null, at_mm [3]
-    or null, height_mm or null, reason or null}; a point with no value needs its reason."""
+    or null, height_mm or null, reason or null, uncertainty_mm [0, MAX_CHART_MM] when the
+    scan leaves a measured point's girth uncertain}; a point with no value needs its reason."""
     if chart is None:
         return {}
     if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS) | {"thigh_profile"}:
@@ -239,9 +240,15 @@ def _parse_chart(chart) -> dict:
             raise _invalid(f"chart.{name}.reason must be a sentence (at most 500 characters)")
         if value is None and reason is None:
             raise _invalid(f"chart.{name} has no value: it needs its reason")
+        uncertainty = entry.get("uncertainty_mm")
+        if uncertainty is not None and (isinstance(uncertainty, bool) or not isinstance(uncertainty, (int, float))
+                                        or not 0 <= uncertainty <= MAX_CHART_MM or value is None):
+            raise _invalid(f"chart.{name}.uncertainty_mm must be a length in [0, {MAX_CHART_MM:g}] mm of a measured point, "
+                           "or absent")
         clean[name] = {"value_mm": None if value is None else float(value), "reason": reason,
                        **({"at_mm": at} if "at_mm" in entry else {}),
-                       **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {})}
+                       **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {}),
+                       **({"uncertainty_mm": float(uncertainty)} if uncertainty is not None else {})}
     return clean
 
 

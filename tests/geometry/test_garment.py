@@ -109,3 +109,26 @@ def test_the_verdict_is_pass_only_without_failed_checks_and_hot_spots():
     assert verdict == "review" and "63.8 mmHg above the 60 mmHg limit at 120 mm above B" in reasons[0]
     assert design_verdict([normative, replace(advisory, passed=False)], [], 60.0)[0] == "review"
     assert design_verdict([replace(normative, passed=False), advisory], [spot], 60.0)[0] == "fail"
+
+
+def test_a_thigh_high_graded_from_an_uncertain_girth_is_for_review():
+    """The BodyParts3D leg reaches its gluteal fold (a crease: no uncertainty): its AG
+    design passes or not on its checks alone; the same record whose chart says cG is
+    uncertain by 7 mm (a smooth fold, app.geometry.anatomy.thigh) gives "review" with
+    the point named, and a knee-high, which is not graded from cG, is not affected."""
+    from app.records.codec import record_from_fit
+
+    scan, result = fitted("bodyparts3d_right_leg.stl", None)
+    record = record_from_fit(result, scan.source_format, scan.units)
+    assert all("uncertainty_mm" not in record.chart[name] for name in ("cE", "cF", "cG"))
+    inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0), stocking_type="AG")
+    sure = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart)
+    assert sure.uncertain_points == () and not any("uncertain" in r for r in sure.verdict[1])
+    chart = {**record.chart, "cG": {**record.chart["cG"], "uncertainty_mm": 6.6}}
+    unsure = design_stocking(record.surface, record.landmarks, "right", inputs, chart)
+    verdict, reasons = unsure.verdict
+    assert verdict in ("review", "fail") and "cG is uncertain by about 7 mm" in reasons[-1]
+    if sure.verdict[0] == "pass":
+        assert verdict == "review"
+    knee_high = design_stocking(record.surface, record.landmarks, "right", DesignInputs(compression_class="II"), chart)
+    assert knee_high.uncertain_points == ()

@@ -41,6 +41,10 @@ def test_record_has_the_documented_fields(record_dict):
 def test_record_round_trips_exactly(record_dict):
     again = CalfRecord.from_dict(json.loads(json.dumps(record_dict))).to_dict()
     assert again == record_dict
+    # a point the scan leaves uncertain keeps its uncertainty
+    unsure = copy.deepcopy(record_dict)
+    unsure["chart"]["cE"]["uncertainty_mm"] = 4.5
+    assert CalfRecord.from_dict(json.loads(json.dumps(unsure))).to_dict() == unsure
 
 
 def _broken(record_dict, mutate):
@@ -65,6 +69,8 @@ def _broken(record_dict, mutate):
         (lambda d: d.__setitem__("frame", [[1, 0, 0], [0, 1, 0]]), "frame"),
         (lambda d: d["landmarks"]["C"].__setitem__("circumference_mm", -3), "landmarks.C"),
         (lambda d: d.pop("surface"), "surface"),
+        (lambda d: d["chart"]["cE"].__setitem__("uncertainty_mm", -2.0), "chart.cE.uncertainty_mm"),
+        (lambda d: d["chart"]["cG"].__setitem__("uncertainty_mm", 5.0), "chart.cG.uncertainty_mm"),  # cG not measured
     ],
 )
 def test_malformed_records_are_refused_with_the_reason(record_dict, mutate, words):

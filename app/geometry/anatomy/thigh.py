@@ -79,11 +79,17 @@ class LevelPoint:
     height_mm: float | None
     reason: str | None = None
     at_mm: tuple[float, float, float] | None = None
+    #: how far the girth may be off (mm) where the scan leaves the point's place uncertain
+    #: by more than GIRTH_TOLERANCE_MM of girth (a knee without a level crown, a smooth
+    #: gluteal fold); the record's warnings say why.  None: within the tolerance
+    uncertainty_mm: float | None = None
 
     def as_dict(self) -> dict:
         out: dict = {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
         if self.at_mm is not None:
             out["at_mm"] = list(self.at_mm)
+        if self.uncertainty_mm is not None:
+            out["uncertainty_mm"] = self.uncertainty_mm
         return out
 
 
@@ -286,7 +292,10 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     knee = _read_across_tape(_level("E", knee_sections, girth, e), points, faces)  # knee_span: a prefix of heights
     warnings: tuple[str, ...] = ()
     spread = (hi - lo) * STEP_MM / 2.0
-    if least in (inside[0], inside[-1]) and knee.height_mm is not None and spread * slope[least] > GIRTH_TOLERANCE_MM:
+    e_uncertain = least in (inside[0], inside[-1]) and knee.height_mm is not None
+    e_uncertain = e_uncertain and spread * slope[least] > GIRTH_TOLERANCE_MM
+    if e_uncertain:
+        knee = dataclasses.replace(knee, uncertainty_mm=float(spread * slope[least]))
         # the least slope at the window's end: the girth has no level crown to find (it
         # rises all the way through the knee, as on every generated MakeHuman leg), so E
         # is where a noisy threshold crossing ends the least-rising stretch; said when that
@@ -322,7 +331,16 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # profile's last 2 SLOPE_HALF_MM); said when that is more than an order's tolerance
     near = profile_z >= profile_z[-1] - 2 * SLOPE_HALF_MM
     girth_slope = float(np.polyfit(profile_z[near], profile_g[near], 1)[0]) if near.sum() >= 2 else 0.0
-    if fold.excess_half_width_mm * abs(girth_slope) > GIRTH_TOLERANCE_MM:
+    g_uncertain = fold.excess_half_width_mm * abs(girth_slope) > GIRTH_TOLERANCE_MM
+    if g_uncertain or e_uncertain:
+        # F lies halfway: its height is uncertain by half of E's and G's, its girth by that
+        # times the profile's slope at F
+        f_height = (spread if e_uncertain else 0.0) / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
+        f_slope = float(np.interp(heights[f], profile_z, np.gradient(profile_g, profile_z))) if len(profile_z) > 1 else 0.0
+        if f_height * abs(f_slope) > GIRTH_TOLERANCE_MM:
+            mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=float(f_height * abs(f_slope)))
+    if g_uncertain:
+        top_of_thigh = dataclasses.replace(top_of_thigh, uncertainty_mm=float(fold.excess_half_width_mm * abs(girth_slope)))
         warnings = warnings + (
             f"the gluteal fold is smooth, not a crease: it spans about {fold.excess_half_width_mm:.0f} mm of height "
             f"either side of G beyond a crease's width, where the thigh's girth changes {abs(girth_slope):.1f} mm per mm, "

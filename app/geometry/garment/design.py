@@ -136,6 +136,9 @@ class StockingDesign:
     #: the foot's rows from cA and cY, or why not (app.geometry.garment.stocking_ends)
     foot: FootOutcome = FootOutcome(None, "no foot was designed")
     top_band: TopBand | None = None  # the band at the top, replacing the graded rows under it
+    #: the points this stocking is graded from whose girth the scan leaves uncertain by
+    #: more than an order's tolerance (the chart's uncertainty_mm), a sentence each
+    uncertain_points: tuple[str, ...] = ()
 
     @property
     def stocking_type(self) -> str:
@@ -150,16 +153,17 @@ class StockingDesign:
     def verdict(self) -> tuple[str, list[str]]:
         """(verdict, reasons): see :func:`design_verdict`."""
         incomplete = [] if self.foot.part is not None else [f"the foot is not in the knitting specification: {self.foot.reason}"]
-        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg, incomplete)
+        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg, incomplete + list(self.uncertain_points))
 
 
 def design_verdict(checks, hot_spots, limit_mmhg: float, incomplete: list[str] | None = None) -> tuple[str, list[str]]:
     """The verdict a clinician reads first: "fail" when a normative check of the standard
     fails; "review" when only an advisory check (the commonly cited, not normative,
     gradient rows) fails, local pressure somewhere exceeds the hot-spot limit or a part of
-    the stocking could not be specified from the scan (``incomplete``, a sentence each:
-    the foot without cA or cY); "pass" only when every check passes, no hot spot is found
-    and the stocking is specified from the foot to the top.  With the reasons, each a
+    the stocking could not be specified from the scan, or only from a girth it leaves
+    uncertain (``incomplete``, a sentence each: the foot without cA or cY; a thigh-high's
+    cG at a smooth gluteal fold); "pass" only when every check passes, no hot spot is
+    found and the stocking is specified from the foot to the top from sure girths.  With the reasons, each a
     sentence naming the check or where the hot spot is (height above B, side, peak)."""
     reasons = [f"{c.name}: fails (normative)" for c in checks if not c.passed and c.normative]
     verdict = "fail" if reasons else "pass"
@@ -286,7 +290,24 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         thigh=thigh,
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
+        uncertain_points=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()),
     )
+
+
+def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:
+    """A sentence for each of ``names`` whose girth the record's chart says is uncertain
+    (its ``uncertainty_mm``, set by app.geometry.anatomy.thigh beyond an order's 3 mm)."""
+    out = []
+    for name in names:
+        uncertainty = ((chart or {}).get(name) or {}).get("uncertainty_mm")
+        if uncertainty is not None:
+            out.append(f"{name} is uncertain by about {uncertainty:.0f} mm (the record's warnings say why): "
+                       f"take {name} by tape (RAL-GZ 387) before knitting")
+    return tuple(out)
+
+
+#: the points a thigh-high is graded from above D
+THIGH_POINTS = ("cE", "cF", "cG")
 
 
 def _thigh_chart(chart: dict | None) -> tuple[dict, dict[str, float]]:

@@ -76,6 +76,8 @@ def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
     rising = thigh_measures(_leg(radius=lambda z: 57.0 + 0.1 * z + 2e-4 * z**2), None, D, knee_bent=False)
     assert rising.knee.girth_mm is not None and len(rising.warnings) == 1
     assert "no level crown" in rising.warnings[0] and "mm of cE" in rising.warnings[0]
+    said = float(re.search(r"and (\d+) mm of cE", rising.warnings[0]).group(1))
+    assert rising.knee.uncertainty_mm == pytest.approx(said, abs=0.5)
     assert thigh_measures(_leg(), None, D, knee_bent=False).warnings == ()
 
 
@@ -88,6 +90,12 @@ def test_a_smooth_gluteal_fold_is_measured_and_said_to_be_uncertain_and_a_faint_
     assert smooth.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=10.0)
     assert len(smooth.warnings) == 1 and "gluteal fold is smooth" in smooth.warnings[0]
     assert "mm of cG" in smooth.warnings[0]
+    # the chart carries how far cG may be off (the warning's number), the crease's none
+    said = float(re.search(r"uncertain by about (\d+) mm of cG", smooth.warnings[0]).group(1))
+    assert smooth.top_of_thigh.uncertainty_mm == pytest.approx(said, abs=0.5) and said > 3.0
+    assert smooth.top_of_thigh.as_dict()["uncertainty_mm"] == smooth.top_of_thigh.uncertainty_mm
+    crease = thigh_measures(_leg(), None, D, knee_bent=False)
+    assert crease.top_of_thigh.uncertainty_mm is None and "uncertainty_mm" not in crease.top_of_thigh.as_dict()
     faint = thigh_measures(_leg(centre_y=lambda z: _smooth_fold_centre_y(z, 1.0, 0.2)), None, D, knee_bent=False)
     assert faint.knee.girth_mm is not None and faint.top_of_thigh.girth_mm is None and faint.warnings == ()
     assert "no gluteal fold found" in faint.top_of_thigh.reason
