@@ -217,6 +217,8 @@ class OrderMeasurement(BaseModel):
     height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
     at_mm: list[float] | None = Field(None, description="where the tape lies (foot) or its section's centre (thigh), calf frame mm")
     reason: str | None = Field(description="why there is no value")
+    uncertainty_mm: float | None = Field(None, description="how far the girth may be off where the scan leaves the point's "
+                                         "place uncertain (the record's warnings say why); null: within 3 mm")
 
 
 class MeasurementsOut(BaseModel):

@@ -36,6 +36,8 @@ def _styles():
 def _value(m: dict) -> str:
     if m["value_mm"] is None:
         return "not measured"
+    if m.get("uncertainty_mm") is not None:  # the scan leaves its place uncertain: the warnings say why
+        return f"{m['value_mm']:.1f} mm &plusmn; {m['uncertainty_mm']:.0f}"
     return f"{m['value_mm']:.1f} mm"
 
 

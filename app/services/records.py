@@ -167,7 +167,8 @@ def record_chart(parsed: CalfRecord, stocking_type: str = "AG") -> list[dict]:
     foot = parsed.chart if parsed.schema_version >= 3 else None
     return [{"point": m.point.name, "kind": m.point.kind, "description": m.point.description,
              "needed_for": list(m.point.needed_for), "needed": m.needed, "value_mm": m.value_mm,
-             "height_mm": m.height_mm, "at_mm": None if m.at_mm is None else list(m.at_mm), "reason": m.reason}
+             "height_mm": m.height_mm, "at_mm": None if m.at_mm is None else list(m.at_mm), "reason": m.reason,
+             **({"uncertainty_mm": m.uncertainty_mm} if m.uncertainty_mm is not None else {})}
             for m in chart_of_record(parsed.landmarks, sole, stocking_type, foot)]
 
 

@@ -42,6 +42,7 @@ from app.geometry.anatomy.landmarks import LANDMARK_NAMES
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.knitting import KnittingSpec, knit_rows
+from app.geometry.garment.measuring_points import THIGH_POINTS
 from app.geometry.garment.pressure import (
     PA_PER_MMHG,
     HotSpot,
@@ -304,10 +305,6 @@ def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, 
             out.append(f"{name} is uncertain by about {uncertainty:.0f} mm (the record's warnings say why): "
                        f"take {name} by tape (RAL-GZ 387) before knitting")
     return tuple(out)
-
-
-#: the points a thigh-high is graded from above D
-THIGH_POINTS = ("cE", "cF", "cG")
 
 
 def _thigh_chart(chart: dict | None) -> tuple[dict, dict[str, float]]:

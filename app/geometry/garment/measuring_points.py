@@ -78,6 +78,9 @@ class MeasuredPoint:
     needed: bool
     reason: str | None = None
     at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's and thigh's points), calf frame
+    #: how far a girth may be off where the scan leaves its place uncertain (the chart's
+    #: uncertainty_mm: a knee without a level crown, a smooth gluteal fold), mm
+    uncertainty_mm: float | None = None
 
 
 #: the record's points off the calf (its ``chart``, version 3): the foot's and the thigh's
@@ -114,7 +117,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
             if point.kind == "circumference":
                 at = level.get("at_mm")
                 measured.append(MeasuredPoint(point, level.get("value_mm"), height, needed, level.get("reason"),
-                                              None if at is None else (float(at[0]), float(at[1]), float(at[2]))))
+                                              None if at is None else (float(at[0]), float(at[1]), float(at[2])),
+                                              level.get("uncertainty_mm")))
             elif height is None:
                 measured.append(MeasuredPoint(point, None, None, needed, level.get("reason")))
             elif sole_mm is None:

@@ -301,7 +301,13 @@ function orderPoints(chart) {
       h('thead', {}, h('tr', {}, ['point', 'what', 'for', 'value'].map((t) => h('th', { text: t })))),
       h('tbody', {}, chart.map((p) => h('tr', { 'data-point': p.point, 'data-measured': p.value_mm != null ? 'yes' : 'no' },
         h('th', { text: p.point }), h('td', { text: p.description }), h('td', { text: p.needed_for.join(', ') }),
-        h('td', { class: p.value_mm != null ? 'num' : 'muted', text: p.value_mm != null ? `${mm(p.value_mm)} mm` : `not in the scan: ${p.reason}` })))))));
+        h('td', { class: p.value_mm != null ? 'num' : 'muted', text: pointValue(p) })))))));
+}
+
+// a measured point's value, with how far it may be off where the scan leaves its place uncertain
+function pointValue(p) {
+  if (p.value_mm == null) return `not in the scan: ${p.reason}`;
+  return p.uncertainty_mm != null ? `${mm(p.value_mm)} mm ± ${mm(p.uncertainty_mm)} (uncertain: take by tape)` : `${mm(p.value_mm)} mm`;
 }
 
 async function draw3d(record, box, toggles, legend, chart) {
