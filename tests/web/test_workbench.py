@@ -432,3 +432,34 @@ def test_every_screen_fits_a_phone_without_sideways_scrolling(served, browser):
         assert {name: w for name, w in widths.items() if w > 390} == {}, widths
     finally:
         context.close()
+
+
+def test_a_girth_the_scan_leaves_uncertain_is_shown_with_its_uncertainty(served, page):
+    """A record whose chart says cG is uncertain by 6.6 mm (a smooth gluteal fold, as
+    app.geometry.anatomy.thigh says it): the order-form table gives cG with "± 6.6" and
+    the advice to take it by tape; cE, which is sure, without."""
+    import httpx
+
+    base, key = served
+    headers = {"X-API-Key": key}
+    job = httpx.post(f"{base}/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(), timeout=60,
+                     params={"case_ref": "CASE-UNSURE"}, headers={**headers, "Content-Type": "model/stl"}).json()
+    for _ in range(240):
+        job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
+        if job["status"] in ("succeeded", "failed"):
+            break
+        time.sleep(0.5)
+    assert job["status"] == "succeeded", job
+    record = httpx.get(f"{base}/api/v1/records/{job['record_id']}", headers=headers).json()
+    for field in ("id", "source", "created_at", "scan_id"):
+        record.pop(field, None)
+    record["chart"]["cG"]["uncertainty_mm"] = 6.6
+    imported = httpx.post(f"{base}/api/v1/records", json=record, headers=headers, timeout=60)
+    assert imported.status_code == 201, imported.text
+    sign_in(page, base, key)
+    page.goto(f"{base}/#/records/{imported.json()['id']}")
+    cell = page.locator("#order-points tr[data-point=cG] td").last
+    expect(cell).to_contain_text("± 6.6", timeout=30_000)
+    assert "take by tape" in cell.inner_text()
+    assert "±" not in page.locator("#order-points tr[data-point=cE] td").last.inner_text()
+    assert page.console_errors == []
