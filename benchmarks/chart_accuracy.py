@@ -60,6 +60,7 @@ def chart_points(scan, side: str | None) -> dict:
     measured = chart_of_record(record.landmarks, sole, "AG", record.chart)
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
+            "uncertainty": {m.point.name: m.uncertainty_mm for m in measured if m.uncertainty_mm is not None},
             "e_uncertain": any("no level crown" in w for w in record.warnings),
             "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings)}
 
@@ -71,9 +72,16 @@ def _warning_check(per_leg: list[dict], point: str) -> dict:
     off = [(entry["scans"][k].get(flag, False), abs(entry["scans"][k][point] - entry["scans"]["mesh_clean"][point]))
            for entry in per_leg for k in RESCAN_KINDS
            if entry["scans"]["mesh_clean"].get(point) is not None and entry["scans"][k].get(point) is not None]
+    # the uncertainty the record states (uncertainty_mm): does the re-scan's reading lie
+    # within it of the clean scan's?
+    stated = [(entry["scans"][k]["uncertainty"][point], abs(entry["scans"][k][point] - entry["scans"]["mesh_clean"][point]))
+              for entry in per_leg for k in RESCAN_KINDS
+              if entry["scans"]["mesh_clean"].get(point) is not None and entry["scans"][k].get(point) is not None
+              and point in entry["scans"][k].get("uncertainty", {})]
     return {"rescans": len(off), "warned": sum(w for w, _ in off), "off_over_3mm": sum(d > 3.0 for _, d in off),
             "off_over_3mm_warned": sum(w and d > 3.0 for w, d in off),
-            "unwarned_p95": _stats([d for w, d in off if not w]).get("p95")}
+            "unwarned_p95": _stats([d for w, d in off if not w]).get("p95"),
+            "stated": len(stated), "within_stated": sum(d <= u for u, d in stated)}
 
 
 def _stats(values: list[float]) -> dict:
@@ -205,7 +213,9 @@ def write(summary: dict) -> None:
         p95 = w["unwarned_p95"]
         lines += ["", f"{what} (the record warns that {point} is uncertain): {w['warned']} of {w['rescans']} re-scans "
                   f"warned; {w['off_over_3mm_warned']} of the {w['off_over_3mm']} whose {point} is more than 3 mm off the "
-                  f"clean scan's; {point} of the unwarned re-scans p95 {p95 if p95 is None else round(p95, 2)} mm."]
+                  f"clean scan's; {point} of the unwarned re-scans p95 {p95 if p95 is None else round(p95, 2)} mm; "
+                  f"{w.get('within_stated', 0)} of the {w.get('stated', 0)} re-scans that state {point}'s uncertainty "
+                  f"(uncertainty_mm) read within it of the clean scan."]
     lines += ["", f"Scans that did not fit: {summary['failed'] or 'none'}", "",
               "Real scans (no tape truth; the mesh and its vertices read as a cloud), mm:", "",
               "| scan | read as | " + " | ".join(GIRTHS + LENGTHS) + " |", "|---|---|" + "---|" * len(GIRTHS + LENGTHS)]
