@@ -75,6 +75,22 @@ def sign_in(page, base, key):
     page.wait_for_url("**/#/records")
 
 
+def fitted_record_id(base: str, key: str, params: dict, scan: Path = REAL / "bodyparts3d_right_leg.stl") -> str:
+    """Upload ``scan`` (an STL) over HTTP with ``params``, wait for its fit, the record's id."""
+    import httpx
+
+    headers = {"X-API-Key": key}
+    job = httpx.post(f"{base}/api/v1/scans", content=scan.read_bytes(), params=params, timeout=60,
+                     headers={**headers, "Content-Type": "model/stl"}).json()
+    for _ in range(240):
+        job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
+        if job["status"] in ("succeeded", "failed"):
+            break
+        time.sleep(0.5)
+    assert job["status"] == "succeeded", job
+    return job["record_id"]
+
+
 #: JavaScript: the RGBA bytes of the WebGL canvas under ``selector`` as ``data``, and the
 #: test ``background(i)`` for the viewer's grey (#eef1f5) at byte offset i
 _CANVAS_DATA_JS = """
@@ -295,18 +311,7 @@ def test_two_designs_side_by_side_and_two_records_compared(served, page):
 
     base, key = served
     headers = {"X-API-Key": key}
-    data = (REAL / "bodyparts3d_right_leg.stl").read_bytes()
-    records = []
-    for params in ({"case_ref": "CASE-CMP"}, {"mode": "lsq", "case_ref": "CASE-CMP"}):
-        job = httpx.post(f"{base}/api/v1/scans", content=data, params=params, timeout=60,
-                         headers={**headers, "Content-Type": "model/stl"}).json()
-        for _ in range(240):
-            job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
-            if job["status"] in ("succeeded", "failed"):
-                break
-            time.sleep(0.5)
-        assert job["status"] == "succeeded", job
-        records.append(job["record_id"])
+    records = [fitted_record_id(base, key, params) for params in ({"case_ref": "CASE-CMP"}, {"mode": "lsq", "case_ref": "CASE-CMP"})]
     for cls in ("II", "I"):
         response = httpx.post(f"{base}/api/v1/records/{records[0]}/designs", headers=headers, timeout=60,
                               json={"compression_class": cls, "fabric": {"stiffness_n_per_cm": 10}})
@@ -404,14 +409,7 @@ def test_every_screen_fits_a_phone_without_sideways_scrolling(served, browser):
 
     base, key = served
     headers = {"X-API-Key": key}
-    job = httpx.post(f"{base}/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(), timeout=60,
-                     params={"points": 8}, headers={**headers, "Content-Type": "model/stl"}).json()
-    for _ in range(240):
-        job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
-        if job["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.5)
-    record = job["record_id"]
+    record = fitted_record_id(base, key, {"points": 8})
     designs = [httpx.post(f"{base}/api/v1/records/{record}/designs", headers=headers, timeout=60,
                           json={"compression_class": cls, "fabric": {"stiffness_n_per_cm": 10}}).json()["id"] for cls in ("II", "I")]
     context = browser.new_context(viewport={"width": 390, "height": 844})
@@ -442,15 +440,7 @@ def test_a_girth_the_scan_leaves_uncertain_is_shown_with_its_uncertainty(served,
 
     base, key = served
     headers = {"X-API-Key": key}
-    job = httpx.post(f"{base}/api/v1/scans", content=(REAL / "bodyparts3d_right_leg.stl").read_bytes(), timeout=60,
-                     params={"case_ref": "CASE-UNSURE"}, headers={**headers, "Content-Type": "model/stl"}).json()
-    for _ in range(240):
-        job = httpx.get(f"{base}/api/v1/jobs/{job['id']}", headers=headers).json()
-        if job["status"] in ("succeeded", "failed"):
-            break
-        time.sleep(0.5)
-    assert job["status"] == "succeeded", job
-    record = httpx.get(f"{base}/api/v1/records/{job['record_id']}", headers=headers).json()
+    record = httpx.get(f"{base}/api/v1/records/{fitted_record_id(base, key, {'case_ref': 'CASE-UNSURE'})}", headers=headers).json()
     for field in ("id", "source", "created_at", "scan_id"):
         record.pop(field, None)
     record["chart"]["cG"]["uncertainty_mm"] = 6.6
