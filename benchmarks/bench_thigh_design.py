@@ -53,7 +53,8 @@ def design_row(name: str, scan, side: str | None) -> dict:
         record = record_from_fit(fit, scan.source_format, scan.units)
         started = time.perf_counter()
         design = design_document(design_stocking(record.surface, record.landmarks, record.side, DesignInputs(
-            compression_class="II", stocking_type="AG", fabric=Fabric.linear(STIFFNESS)), chart=record.chart))
+            compression_class="II", stocking_type="AG", fabric=Fabric.linear(STIFFNESS)), chart=record.chart,
+            skin=record.fit.get("surface_to_scan")))  # as the service designs it (app.services.designs.compute_design)
         seconds = time.perf_counter() - started
     except FitFailure as failure:
         return out | {"outcome": failure.reason.value, "detail": failure.detail}
@@ -124,8 +125,10 @@ def report(result: dict) -> str:
     designed = [r for r in every if r["outcome"] == "design"]
     with_g = {r["scan"][:5] for r in result["rows"] if r["outcome"] == "design"}
     lines += ["", f"- generated legs whose scans reach the gluteal fold (G found, so AG can be designed): {len(with_g)} / "
-              f"{result['legs']}; on the others the back of the thigh is rearmost at the scan's top (no buttock in the "
-              "scan: app.geometry.anatomy.thigh finds no fold), and an AG design is refused saying so",
+              f"{result['legs']}; on the others app.geometry.anatomy.thigh finds no fold: the back of the thigh bends "
+              "less below its rearmost point than a fold does (FOLD_MIN_BEND; the reasons below give each scan's bend: "
+              "the scan stops below the fold, or the generated leg's fold is too smooth to place), and an AG design is "
+              "refused saying so",
               f"- designed: {len(designed)} / {len(every)}; class at B: {sum(r['class_at_B'] for r in designed)}; "
               f"graded to G: {sum(r['graded_to_G'] for r in designed)}; Laplace within {LAPLACE_RTOL:.0%}: "
               f"{sum(r['laplace_worst_share'] <= LAPLACE_RTOL for r in designed)}; foot designed (cA and cY in the scan): "

@@ -79,7 +79,8 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
 def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
     """The design of ``record`` as stored and sent (:func:`design_document`)."""
     chart = record.chart if record.schema_version >= 3 else None
-    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart))
+    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart,
+                                           (record.fit or {}).get("surface_to_scan")))
 
 
 def _check_document(check: DesignCheck) -> dict:

@@ -123,7 +123,7 @@ def test_a_thigh_high_graded_from_an_uncertain_girth_is_for_review():
     assert all("uncertainty_mm" not in record.chart[name] for name in ("cE", "cF", "cG"))
     inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0), stocking_type="AG")
     sure = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart)
-    assert sure.uncertain_points == () and not any("uncertain" in r for r in sure.verdict[1])
+    assert sure.uncertain_inputs == () and not any("uncertain" in r for r in sure.verdict[1])
     chart = {**record.chart, "cG": {**record.chart["cG"], "uncertainty_mm": 6.6}}
     unsure = design_stocking(record.surface, record.landmarks, "right", inputs, chart)
     verdict, reasons = unsure.verdict
@@ -131,4 +131,25 @@ def test_a_thigh_high_graded_from_an_uncertain_girth_is_for_review():
     if sure.verdict[0] == "pass":
         assert verdict == "review"
     knee_high = design_stocking(record.surface, record.landmarks, "right", DesignInputs(compression_class="II"), chart)
-    assert knee_high.uncertain_points == ()
+    assert knee_high.uncertain_inputs == ()
+
+
+def test_a_design_from_a_surface_off_the_skin_is_for_review():
+    """The record's own surface -> scan distances (fit.surface_to_scan): BodyParts3D's
+    calf surface lies on the skin, so its design is judged on its checks alone; the same
+    surface said to stand 4.3 mm off over 6% of a ring (the fit's off-skin warning, at
+    least 5% of a ring) gives "review" with where."""
+    from app.records.codec import record_from_fit
+
+    scan, result = fitted("bodyparts3d_right_leg.stl", None)
+    record = record_from_fit(result, scan.source_format, scan.units)
+    skin = record.fit["surface_to_scan"]
+    inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0))
+    on_skin = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, skin)
+    assert skin["worst_ring_share"] < 0.05 and on_skin.uncertain_inputs == ()
+    off = {**skin, "worst_ring_share": 0.06, "max_mm": 4.3, "worst_ring_height_mm": 326.0}
+    verdict, reasons = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, off).verdict
+    assert verdict in ("review", "fail") and any("stands up to 4.3 mm off the scan's skin" in r and "326 mm above B" in r
+                                                 for r in reasons)
+    if on_skin.verdict[0] == "pass":
+        assert verdict == "review"

@@ -65,6 +65,7 @@ from app.geometry.garment.standards import (
 from app.geometry.garment.stocking_ends import MAX_TOP_BAND_MM, TOES, TOP_BAND_WIDTH_MM, FootOutcome, TopBand, foot_part, top_band
 from app.geometry.garment.thigh_design import ThighPart, thigh_part
 from app.geometry.spline.nurbs import NurbsSurface
+from app.geometry.spline.skin_distance import OFF_SKIN_MM, OFF_SKIN_RING_SHARE
 
 #: Default limit for local pressure hot spots, mmHg.  Partsch et al. (Dermatol Surg 2008;
 #: 34:600-609, the consensus on compression pressures) call sub-bandage pressures above
@@ -137,9 +138,10 @@ class StockingDesign:
     #: the foot's rows from cA and cY, or why not (app.geometry.garment.stocking_ends)
     foot: FootOutcome = FootOutcome(None, "no foot was designed")
     top_band: TopBand | None = None  # the band at the top, replacing the graded rows under it
-    #: the points this stocking is graded from whose girth the scan leaves uncertain by
-    #: more than an order's tolerance (the chart's uncertainty_mm), a sentence each
-    uncertain_points: tuple[str, ...] = ()
+    #: what this stocking is graded from that the scan leaves uncertain, a sentence each:
+    #: a thigh point whose girth is uncertain by more than an order's tolerance (the
+    #: chart's uncertainty_mm), the calf surface standing off the scan's skin
+    uncertain_inputs: tuple[str, ...] = ()
 
     @property
     def stocking_type(self) -> str:
@@ -154,7 +156,7 @@ class StockingDesign:
     def verdict(self) -> tuple[str, list[str]]:
         """(verdict, reasons): see :func:`design_verdict`."""
         incomplete = [] if self.foot.part is not None else [f"the foot is not in the knitting specification: {self.foot.reason}"]
-        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg, incomplete + list(self.uncertain_points))
+        return design_verdict(self.checks, self.hot_spots, self.hot_spot_limit_mmhg, incomplete + list(self.uncertain_inputs))
 
 
 def design_verdict(checks, hot_spots, limit_mmhg: float, incomplete: list[str] | None = None) -> tuple[str, list[str]]:
@@ -194,13 +196,16 @@ class DesignInputs:
 
 
 def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs,
-                    chart: dict | None = None) -> StockingDesign:
+                    chart: dict | None = None, skin: dict | None = None) -> StockingDesign:
     """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
     C, D; side: "left" | "right" | None; chart: the record's points off the calf (schema
     version 3), which a thigh-high (``inputs.stocking_type`` "AG") needs: cE, cF, cG and
-    the thigh profile.  Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
+    the thigh profile; skin: the record's surface -> scan distances (its
+    ``fit.surface_to_scan``, app.geometry.spline.skin_distance.SkinDistance.as_dict): a
+    surface standing off the skin over an arc of a ring makes the design "review".
+    Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
     UNREACHABLE_PRESSURE) with the reason.
     """
     if inputs.stocking_type not in STOCKING_TYPES:
@@ -291,8 +296,21 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         thigh=thigh,
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
-        uncertain_points=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()),
+        uncertain_inputs=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin),
     )
+
+
+def _off_skin(skin: dict | None) -> tuple[str, ...]:
+    """The sentence for a calf surface that stands more than OFF_SKIN_MM off the scan's
+    skin over at least OFF_SKIN_RING_SHARE of a ring (the fit's own warning,
+    app.geometry.spline.skin_distance): the rings the stocking is knitted from are not the
+    leg's there."""
+    share = (skin or {}).get("worst_ring_share")
+    if skin is None or share is None or share < OFF_SKIN_RING_SHARE:
+        return ()
+    return (f"the calf surface stands up to {skin['max_mm']:.1f} mm off the scan's skin ({share:.0%} of its ring at "
+            f"{skin['worst_ring_height_mm']:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off): the girths the stocking "
+            "is knitted from are not the leg's there; check the fit, or take that girth by tape",)
 
 
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:
