@@ -30,11 +30,11 @@ sys.path.insert(0, str(ROOT))
 
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
-from app.geometry.garment.design import DesignInputs, design_stocking  # noqa: E402
+from app.geometry.garment.design import DesignInputs  # noqa: E402
 from app.geometry.garment.fabric import Fabric  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
-from app.services.designs import design_document  # noqa: E402
+from app.services.designs import compute_design  # noqa: E402
 from benchmarks.corpus.cases import CaseSpec, build_case  # noqa: E402
 from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
 
@@ -52,9 +52,8 @@ def design_row(name: str, scan, side: str | None) -> dict:
         fit = fit_scan(scan, options, placement=check_scan(scan, options))
         record = record_from_fit(fit, scan.source_format, scan.units)
         started = time.perf_counter()
-        design = design_document(design_stocking(record.surface, record.landmarks, record.side, DesignInputs(
-            compression_class="II", stocking_type="AG", fabric=Fabric.linear(STIFFNESS)), chart=record.chart,
-            skin=record.fit.get("surface_to_scan")))  # as the service designs it (app.services.designs.compute_design)
+        # as the service designs it (its chart, its surface's distances to the skin)
+        design = compute_design(record, DesignInputs(compression_class="II", stocking_type="AG", fabric=Fabric.linear(STIFFNESS)))
         seconds = time.perf_counter() - started
     except FitFailure as failure:
         return out | {"outcome": failure.reason.value, "detail": failure.detail}

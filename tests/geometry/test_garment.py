@@ -153,3 +153,6 @@ def test_a_design_from_a_surface_off_the_skin_is_for_review():
                                                  for r in reasons)
     if on_skin.verdict[0] == "pass":
         assert verdict == "review"
+    # an imported record's fit is its own: distances that are not such a dict are no reason
+    for junk in ("far", {"worst_ring_share": "x"}, {**skin, "max_mm": None}):
+        assert design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, junk).uncertain_inputs == ()

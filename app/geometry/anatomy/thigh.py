@@ -200,14 +200,12 @@ def _posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np
 @dataclass(frozen=True)
 class GlutealFold:
     """The gluteal fold found in the posterior profile: ``index`` into the heights, or
-    None with the ``reason``; ``bend`` the profile's largest bend below the buttock (NaN
-    without a buttock); ``excess_half_width_mm`` how much wider than a corner the bend's
-    peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's own: 0
-    for a crease, the fold's own half extent for a smooth one)."""
+    None with the ``reason``; ``excess_half_width_mm`` how much wider than a corner the
+    bend's peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's
+    own: 0 for a crease, the fold's own half extent for a smooth one)."""
 
     index: int | None
     reason: str | None
-    bend: float = float("nan")
     excess_half_width_mm: float = 0.0
 
 
@@ -250,14 +248,14 @@ def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm
         reason = (f"no gluteal fold found: the back of the thigh bends at most {max(bend_here[peak], 0.0):.2f} below "
                   f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
                   f"fold is too smooth to place; a tape at the fold decides")
-        return GlutealFold(None, reason, float(bend_here[peak]))
+        return GlutealFold(None, reason)
     low = np.flatnonzero(bend_here < bend_here[peak] / 2)  # the peak's run at half maximum
     lo = int(low[low < peak].max(initial=-1)) + 1
     hi = int(low[low > peak].min(initial=len(search))) - 1
     half_width = (heights[search[hi]] - heights[search[lo]]) / 2 + STEP_MM / 2
     # G is the middle of that run, as E is of the knee's level stretch: the largest bend
     # alone wanders along a smooth fold's flat peak with a scanner's noise
-    return GlutealFold(int(search[(lo + hi) // 2]), None, float(bend_here[peak]), max(half_width - SLOPE_HALF_MM, 0.0))
+    return GlutealFold(int(search[(lo + hi) // 2]), None, max(half_width - SLOPE_HALF_MM, 0.0))
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
@@ -292,8 +290,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     knee = _read_across_tape(_level("E", knee_sections, girth, e), points, faces)  # knee_span: a prefix of heights
     warnings: tuple[str, ...] = ()
     spread = (hi - lo) * STEP_MM / 2.0
-    e_uncertain = least in (inside[0], inside[-1]) and knee.height_mm is not None
-    e_uncertain = e_uncertain and spread * slope[least] > GIRTH_TOLERANCE_MM
+    e_uncertain = bool(least in (inside[0], inside[-1]) and knee.height_mm is not None
+                       and spread * slope[least] > GIRTH_TOLERANCE_MM)
     if e_uncertain:
         knee = dataclasses.replace(knee, uncertainty_mm=float(spread * slope[least]))
         # the least slope at the window's end: the girth has no level crown to find (it

@@ -40,7 +40,7 @@ from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.spline.distance import SurfaceError, error_statistics
 from app.geometry.spline.lsq import LsqFit, LsqGrid, fit_lsq_surface
 from app.geometry.spline.nurbs import NurbsSurface, surface_from_layers
-from app.geometry.spline.skin_distance import OFF_SKIN_MM, SkinDistance, surface_to_scan
+from app.geometry.spline.skin_distance import SkinDistance, surface_to_scan
 
 #: the error index of a point cloud is computed on at most this many of its calf points
 #: (a fixed stride along the leg, rounded up).  E is an RMS: from n points its relative
@@ -326,9 +326,8 @@ def fit_calf(
                 "measured from it) is not")
     if skin.off_skin:
         fit_warnings.append(
-            f"the surface stands up to {skin.max_mm:.1f} mm off the scan's skin: {skin.worst_ring_share:.0%} of its ring "
-            f"at {skin.worst_ring_height_mm:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off, so its girths there are "
-            "not the scan's" + (" (try mode=paper or a finer grid)" if options.mode == "lsq" else ""))
+            f"the surface {skin.off_skin_text}, so its girths there are not the scan's"
+            + (" (try mode=paper or a finer grid)" if options.mode == "lsq" else ""))
     if lsq_fit is not None:
         per_control = len(in_calf) / (lsq_fit.grid.around * lsq_fit.grid.along)
         needed = MIN_POINTS_PER_CONTROL if faces is None else MIN_VERTICES_PER_CONTROL

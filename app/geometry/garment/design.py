@@ -65,7 +65,7 @@ from app.geometry.garment.standards import (
 from app.geometry.garment.stocking_ends import MAX_TOP_BAND_MM, TOES, TOP_BAND_WIDTH_MM, FootOutcome, TopBand, foot_part, top_band
 from app.geometry.garment.thigh_design import ThighPart, thigh_part
 from app.geometry.spline.nurbs import NurbsSurface
-from app.geometry.spline.skin_distance import OFF_SKIN_MM, OFF_SKIN_RING_SHARE
+from app.geometry.spline.skin_distance import SkinDistance
 
 #: Default limit for local pressure hot spots, mmHg.  Partsch et al. (Dermatol Surg 2008;
 #: 34:600-609, the consensus on compression pressures) call sub-bandage pressures above
@@ -301,16 +301,14 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
 
 
 def _off_skin(skin: dict | None) -> tuple[str, ...]:
-    """The sentence for a calf surface that stands more than OFF_SKIN_MM off the scan's
-    skin over at least OFF_SKIN_RING_SHARE of a ring (the fit's own warning,
-    app.geometry.spline.skin_distance): the rings the stocking is knitted from are not the
-    leg's there."""
-    share = (skin or {}).get("worst_ring_share")
-    if skin is None or share is None or share < OFF_SKIN_RING_SHARE:
+    """The sentence for a calf surface that stands off the scan's skin over an arc of a
+    ring (the fit's own warning, :attr:`SkinDistance.off_skin`): the rings the stocking
+    is knitted from are not the leg's there."""
+    distances = SkinDistance.from_dict(skin)
+    if distances is None or not distances.off_skin:
         return ()
-    return (f"the calf surface stands up to {skin['max_mm']:.1f} mm off the scan's skin ({share:.0%} of its ring at "
-            f"{skin['worst_ring_height_mm']:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off): the girths the stocking "
-            "is knitted from are not the leg's there; check the fit, or take that girth by tape",)
+    return (f"the calf surface {distances.off_skin_text}: the girths the stocking is knitted from are not the leg's "
+            "there; check the fit, or take that girth by tape",)
 
 
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:

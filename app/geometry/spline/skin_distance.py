@@ -27,7 +27,8 @@ surface the scan covers, and where the worst sample lies.  Units: mm; calf frame
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -75,6 +76,28 @@ class SkinDistance:
     def off_skin(self) -> bool:
         """An arc of at least OFF_SKIN_RING_SHARE of some ring stands off the skin."""
         return self.worst_ring_share >= OFF_SKIN_RING_SHARE
+
+    @property
+    def off_skin_text(self) -> str:
+        """Where and how far the surface stands off, in words (the fit's warning and the
+        design's review reason say it)."""
+        return (f"stands up to {self.max_mm:.1f} mm off the scan's skin: {self.worst_ring_share:.0%} of its ring at "
+                f"{self.worst_ring_height_mm:.0f} mm above B is more than {OFF_SKIN_MM:g} mm off")
+
+    @classmethod
+    def from_dict(cls, data) -> SkinDistance | None:
+        """The distances as a record stores them (:meth:`as_dict`; fields a record made
+        before they were kept take their defaults), or None when ``data`` is not such a
+        dict (a record imported from elsewhere carries its ``fit`` as it likes)."""
+        if not isinstance(data, dict):
+            return None
+        try:
+            values: dict[str, Any] = {f.name: float(data[f.name]) for f in fields(cls) if f.name in data}
+            if "n_samples" in values:
+                values["n_samples"] = int(values["n_samples"])
+            return cls(**values)
+        except (TypeError, ValueError, OverflowError):
+            return None
 
     def as_dict(self) -> dict:
         return {"median_mm": self.median_mm, "p99_mm": self.p99_mm, "max_mm": self.max_mm, "coverage": self.coverage,
