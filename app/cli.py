@@ -234,7 +234,7 @@ def _cmd_worker(args: argparse.Namespace) -> int:
             loop.add_signal_handler(sig, stop.set)
         runner = EmbeddedRunner(
             session_factory(settings.resolved_database_url),
-            ScanStore(settings.scan_dir, settings.tmp_dir),
+            ScanStore(settings.scan_dir, settings.tmp_dir, settings.placed_dir),
             settings.workers,
             settings.job_timeout_s,
             lease_s=settings.job_lease_s,

@@ -74,7 +74,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.settings = settings
         app.state.sessions = session_factory(url)
         app.state.engine_dialect = engine_for(url).dialect.name
-        app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir)
+        app.state.store = ScanStore(settings.scan_dir, settings.tmp_dir, settings.placed_dir)
         app.state.runner = EmbeddedRunner(app.state.sessions, app.state.store, settings.workers, settings.job_timeout_s,
                                           settings.run_jobs, metrics=app.state.metrics, lease_s=settings.job_lease_s,
                                           max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings),

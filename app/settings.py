@@ -146,6 +146,12 @@ class Settings(BaseSettings):
     def tmp_dir(self) -> Path:
         return self.data_dir / "tmp"
 
+    @property
+    def placed_dir(self) -> Path:
+        """The legs the upload check cut out, each kept until its job's fit reads it
+        (app.services.placed_legs)."""
+        return self.data_dir / "placed"
+
 
 @lru_cache
 def get_settings() -> Settings:

@@ -463,7 +463,8 @@ class ErasureOut(BaseModel):
     records: int
     designs: int
     idempotency_entries: int = Field(description="stored answers to Idempotency-Key requests that named them")
-    files: int = Field(description="stored scan files deleted")
+    files: int = Field(description="stored files deleted: scan files, and the legs the upload check cut out "
+                       "of them for jobs that had not run yet")
 
 
 class SizeChartOut(BaseModel):

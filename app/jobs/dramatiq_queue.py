@@ -68,7 +68,7 @@ class _Context:
     def __init__(self, settings: Settings):
         self.settings = settings
         self.sessions = session_factory(settings.resolved_database_url)
-        self.store = ScanStore(settings.scan_dir, settings.tmp_dir)
+        self.store = ScanStore(settings.scan_dir, settings.tmp_dir, settings.placed_dir)
         self.pid = os.getpid()
         self.owner = lifecycle.owner_name()
 
@@ -131,7 +131,8 @@ def fit_job(job_id: str) -> None:
         return
     with _LeaseKeeper(context, job_id):
         try:
-            outcome = fit_scan_file(claimed.path, claimed.file_format, claimed.options, claimed.placement)
+            outcome = fit_scan_file(claimed.path, claimed.file_format, claimed.options, claimed.placement,
+                                    placed_leg=claimed.placed_leg)
         except FitFailure as failure:
             lifecycle.conclude(context.sessions, context.owner, job_id, failure=failure)
             return

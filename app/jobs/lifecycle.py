@@ -29,7 +29,8 @@ log = logging.getLogger("calf_nurbs.jobs")
 
 @dataclass(frozen=True)
 class ClaimedJob:
-    """What a fit needs: the job, its stored scan's path and format, options, placement."""
+    """What a fit needs: the job, its stored scan's path and format, options, placement,
+    and where the upload check left the leg it cut out (app.services.placed_legs)."""
 
     job_id: str
     path: str
@@ -37,6 +38,7 @@ class ClaimedJob:
     options: dict
     placement: dict | None
     tenant_id: str | None = None
+    placed_leg: str | None = None
 
 
 #: a claim found a job that had used up its attempts (it is now failed)
@@ -74,7 +76,7 @@ def claim(sessions: sessionmaker[Session], store: ScanStore, owner: str, lease_s
             return EXHAUSTED
         scan = ScanRepository(session).get(job.scan_id)
         return ClaimedJob(job.id, str(store.path_for(scan.sha256)), scan.file_format, dict(job.options), job.placement,
-                          job.tenant_id)
+                          job.tenant_id, str(store.placed_leg_path(job.id)))
 
 
 def renew(sessions: sessionmaker[Session], owner: str, job_ids: list[str], lease_s: float) -> None:

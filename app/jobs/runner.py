@@ -329,7 +329,7 @@ class EmbeddedRunner:
         try:
             with self.busy(job.tenant_id) as nice:
                 outcome = await self.fit_pool.run(fit_scan_file, job.path, job.file_format, job.options, job.placement,
-                                                  nice, timeout=self.job_timeout_s)
+                                                  nice, job.placed_leg, timeout=self.job_timeout_s)
         except FitFailure as failure:
             return await conclude(failure=failure)
         except TimeoutError:

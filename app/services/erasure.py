@@ -2,7 +2,8 @@
 
 Scans are health data.  Erasing a scan removes, in one database transaction, the scan's
 row, its jobs, the records fitted from it, the designs made from those records and the
-idempotent answers that point at any of them; then the stored file (the store is
+idempotent answers that point at any of them; then the stored files: the leg the
+upload check cut out for a job still queued, and the scan's file (the store is
 content-addressed: the file goes when no tenant's scan row names its bytes any more).
 The file is removed after the commit: were it removed first and the commit fail, rows
 would point at a missing file; this way a crash between the two leaves only an orphan
@@ -76,8 +77,10 @@ class ErasureService:
         design_ids = self.erasure.design_ids_of(record_ids)
         removed = self.erasure.remove([s for s, _ in scans], sorted({j.id for j in jobs}), record_ids, design_ids)
         self.session.commit()
-        files = 0
-        for _, sha256 in scans:  # after the commit (module docstring)
+        # after the commit (module docstring): the legs the upload checks cut out for
+        # queued jobs (app.services.placed_legs), then the scans no row names any more
+        files = self.store.remove_placed_legs(sorted({j.id for j in jobs}))
+        for _, sha256 in scans:
             if not self.erasure.sha256_still_stored(sha256) and self.store.exists(sha256):
                 self.store.remove(sha256)
                 files += 1

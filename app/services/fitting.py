@@ -14,11 +14,12 @@ import os
 import time
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.fit.pipeline import FitOptions, fit_placed_leg, fit_scan, place_scan
 from app.geometry.placement import LegPlacement
 from app.geometry.scan.reader import UNIT_SCALE_MM, load_scan
 from app.geometry.spline.lsq import LsqGrid
 from app.records.codec import record_from_fit
+from app.services.placed_legs import take_placed_leg, write_placed_leg
 
 #: the C library (malloc_trim here, prctl in app.jobs.runner), None where there is none
 _LIBC_NAME = ctypes.util.find_library("c")
@@ -106,30 +107,45 @@ def set_priority(nice: int) -> None:
 
 
 def validate_scan_file(path: str, file_format: str, options: dict, max_points: int | None = None,
-                       max_faces: int | None = None, nice: int = 0) -> dict:
+                       max_faces: int | None = None, nice: int = 0, placed_leg: str | None = None) -> dict:
     """Worker: read the scan and place its calf; raises FitFailure with the reason
     (scan_too_large beyond ``max_points`` / ``max_faces``).  Returns the placement as the
-    JSON the job stores (the one place it is serialised; :func:`fit_scan_file` reads it)."""
+    JSON the job stores (the one place it is serialised; :func:`fit_scan_file` reads it)
+    and, given ``placed_leg``, writes there the leg it cut out for the job's fit
+    (:mod:`app.services.placed_legs`)."""
     set_priority(nice)
     with worker_task():
         scan = load_scan(path, file_type=file_format, units=options.get("units"), max_points=max_points,
                          max_faces=max_faces)
-        return check_scan(scan, fit_options(options)).to_dict()
+        leg = place_scan(scan, fit_options(options))
+        if placed_leg is not None:
+            write_placed_leg(placed_leg, leg, scan)
+        return leg.placement.to_dict()
 
 
-def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None, nice: int = 0) -> dict:
+def fit_scan_file(path: str, file_format: str, options: dict, placement: dict | None = None, nice: int = 0,
+                  placed_leg: str | None = None) -> dict:
     """Worker: the whole fit; returns {"record": record JSON, "stage_seconds": {...}}.
 
     ``placement``: what the upload check found (see app.geometry.fit.pipeline.check_scan); the
-    fit then skips locating the calf again.
+    fit then skips locating the calf again.  ``placed_leg``: the file where the check
+    left the leg it cut out (:mod:`app.services.placed_legs`); when it is there, the fit
+    starts from it (and removes it) instead of reading and cleaning the scan again.
     """
     set_priority(nice)
     started = time.perf_counter()
     with worker_task():
-        scan = load_scan(path, file_type=file_format, units=options.get("units"))
-        loaded = time.perf_counter()
-        result = fit_scan(scan, fit_options(options), LegPlacement.from_dict(placement) if placement else None)
+        handed = take_placed_leg(placed_leg, placement) if placed_leg and placement else None
+        if handed is not None:
+            loaded = time.perf_counter()
+            result = fit_placed_leg(handed.leg, handed.n_scan_points, fit_options(options))
+            source_format, units = handed.source_format, handed.units
+        else:
+            scan = load_scan(path, file_type=file_format, units=options.get("units"))
+            loaded = time.perf_counter()
+            result = fit_scan(scan, fit_options(options), LegPlacement.from_dict(placement) if placement else None)
+            source_format, units = scan.source_format, scan.units
         seconds = time.perf_counter() - started
-        record = record_from_fit(result, scan.source_format, scan.units, seconds).to_dict()
+        record = record_from_fit(result, source_format, units, seconds).to_dict()
     stages = {"load": loaded - started, **{k: float(v) for k, v in result.timings.items()}, "total": seconds}
     return {"record": record, "stage_seconds": stages}

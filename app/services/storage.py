@@ -29,11 +29,16 @@ def _running(pid: int) -> bool:
 
 
 class ScanStore:
-    def __init__(self, root: Path, tmp: Path):
+    """The stored scans (``root``), the uploads being received (``tmp``) and the legs
+    the upload check cut out of them (``placed``, one file per queued job: see
+    :mod:`app.services.placed_legs`)."""
+
+    def __init__(self, root: Path, tmp: Path, placed: Path | None = None):
         self.root = root
         self.tmp = tmp
-        self.root.mkdir(parents=True, exist_ok=True)
-        self.tmp.mkdir(parents=True, exist_ok=True)
+        self.placed = placed if placed is not None else tmp.parent / "placed"
+        for folder in (self.root, self.tmp, self.placed):
+            folder.mkdir(parents=True, exist_ok=True)
 
     def path_for(self, sha256: str) -> Path:
         return self.root / sha256[:2] / sha256
@@ -79,3 +84,33 @@ class ScanStore:
     def remove(self, sha256: str) -> None:
         """Undo a commit whose database row could not be written."""
         self.path_for(sha256).unlink(missing_ok=True)
+
+    @staticmethod
+    def placed_leg_temp(upload_temp: Path) -> Path:
+        """Where the check of the upload received at ``upload_temp`` writes the leg it
+        cut out: beside it, named like it (a crash's leftover goes with
+        :meth:`clean_temp`)."""
+        return upload_temp.with_name(upload_temp.name + ".leg.npz")
+
+    def placed_leg_path(self, job_id: str) -> Path:
+        """The leg cut out for job ``job_id`` (a job id is a uuid: no path in it)."""
+        return self.placed / f"{job_id}.npz"
+
+    def keep_placed_leg(self, temp: Path, job_id: str) -> None:
+        """Hand the leg a check wrote at ``temp`` to job ``job_id`` (an atomic rename)."""
+        try:
+            os.replace(temp, self.placed_leg_path(job_id))
+        except FileNotFoundError:  # the check wrote none: the fit reads the scan
+            pass
+
+    def remove_placed_legs(self, job_ids) -> int:
+        """Remove the legs kept for ``job_ids`` (jobs erased before they ran); returns
+        how many there were."""
+        removed = 0
+        for job_id in job_ids:
+            try:
+                self.placed_leg_path(job_id).unlink()
+                removed += 1
+            except FileNotFoundError:
+                pass
+        return removed

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 from fastapi.concurrency import run_in_threadpool
@@ -64,16 +65,26 @@ class UploadFlow:
     async def check_and_queue(self, upload: ReceivedUpload, options: dict, stage: Stage | None,
                               case_ref: str | None = None) -> QueuedUpload:
         """Place the leg of ``upload`` in a worker, then store the scan and queue its job
-        (the placement travels with the job, so the fit does not place it again).
+        (the placement travels with the job, and the leg the check cut out is handed to
+        it, so the fit neither places it nor reads the scan again:
+        app.services.placed_legs).
         Raises FitFailure (the check's reason), Unavailable (check_timeout, the runner
         down) or TooManyRequests (the clinic's checks); the caller discards the file."""
+        leg_temp = self.store.placed_leg_temp(upload.temp_path)
+        try:
+            return await self._check_and_queue(upload, options, stage, case_ref, leg_temp)
+        finally:  # handed to the job, or the upload is refused: never left behind
+            leg_temp.unlink(missing_ok=True)
+
+    async def _check_and_queue(self, upload: ReceivedUpload, options: dict, stage: Stage | None,
+                               case_ref: str | None, leg_temp: Path) -> QueuedUpload:
         started, outcome = time.perf_counter(), "runner_unavailable"
         try:
             async with self.check_gate.slot(self.tenant_id):  # fair share of the check pool
                 with self.runner.busy(self.tenant_id) as nice:
                     placement = await self.runner.run_in_worker(
                         validate_scan_file, str(upload.temp_path), upload.file_format, options, self.max_scan_points,
-                        self.max_scan_faces, nice, timeout=self.validation_timeout_s)
+                        self.max_scan_faces, nice, str(leg_temp), timeout=self.validation_timeout_s)
             outcome = "accepted"
         except TimeoutError as exc:
             outcome = "check_timeout"
@@ -93,8 +104,18 @@ class UploadFlow:
             answer["body"] = jsonable_encoder(job_view(job, scan, reused))
             if stage is not None:
                 stage(202, answer["body"], f"/api/v1/jobs/{job.id}")
+            # the leg goes to the job before the commit: a runner that claims the job at
+            # once finds it (handed over after, a fit that had not waited for it would
+            # leave it behind)
+            self.store.keep_placed_leg(leg_temp, job.id)
+            answer["job_id"] = job.id
 
-        job, _, _ = await run_in_threadpool(JobService(self.session, self.tenant_id).submit, upload, options,
-                                            self.store, placement, keep_answer, case_ref)
+        try:
+            job, _, _ = await run_in_threadpool(JobService(self.session, self.tenant_id).submit, upload, options,
+                                                self.store, placement, keep_answer, case_ref)
+        except BaseException:  # no job was stored: nor is its leg
+            if "job_id" in answer:
+                self.store.remove_placed_legs([answer["job_id"]])
+            raise
         await self.runner.submitted(job.id)  # after the commit: a worker never sees an uncommitted job
         return QueuedUpload(answer["body"], f"/api/v1/jobs/{job.id}")

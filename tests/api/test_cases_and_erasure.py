@@ -87,3 +87,26 @@ def test_a_scan_another_case_also_used_stays_when_one_case_is_erased(service_cli
     assert (erased["scans"], erased["files"], erased["jobs"], erased["records"]) == (0, 0, 1, 1)
     assert client.get(f"/api/v1/records/{second['record_id']}").status_code == 200
     assert client.delete("/api/v1/cases/CASE-B").json()["files"] == 1  # the last case takes the file with it
+
+
+def test_the_leg_the_check_cut_out_waits_for_its_job_only_and_is_erased_with_it(service_client, tmp_path):
+    """app.services.placed_legs: the check's leg is handed to the queued job (and to no
+    one else), read and removed by its fit, and erased with a job that never ran."""
+    data = LEG.read_bytes()
+    waiting = service_client(data_dir=tmp_path / "waiting", run_jobs=False)  # accepts, never fits
+    answer = waiting.post("/api/v1/scans", content=data, params={"points": 8}, headers={"Content-Type": "model/stl"})
+    assert answer.status_code == 202, answer.text
+    queued = answer.json()
+    assert [p.name for p in (tmp_path / "waiting" / "placed").iterdir()] == [f"{queued['id']}.npz"]
+    refused = waiting.post("/api/v1/scans", content=b"solid nothing\nendsolid nothing\n", headers={"Content-Type": "model/stl"})
+    assert refused.status_code == 422
+    assert not list((tmp_path / "waiting" / "tmp").iterdir())  # neither upload nor leg left behind
+    erased = waiting.delete(f"/api/v1/scans/{queued['scan_id']}").json()
+    assert (erased["jobs"], erased["files"]) == (1, 2)  # the scan's file and the job's leg
+    assert not list((tmp_path / "waiting" / "placed").iterdir())
+
+    fitting = service_client(data_dir=tmp_path / "fitting")
+    job = _upload(fitting, None, data)
+    assert fitting.get(f"/api/v1/records/{job['record_id']}").status_code == 200
+    assert not list((tmp_path / "fitting" / "placed").iterdir())  # read by the fit and gone
+    assert job["stage_seconds"]["calf_frame"] == 0.0  # the fit placed nothing again: it started from the leg

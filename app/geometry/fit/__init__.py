@@ -4,6 +4,14 @@ landmarks out, with the error index E (section 3) and the surface-to-scan distan
 
 from __future__ import annotations
 
-from app.geometry.fit.pipeline import FitOptions, FitResult, check_scan, fit_calf, fit_scan
+from app.geometry.fit.pipeline import (
+    FitOptions,
+    FitResult,
+    check_scan,
+    fit_calf,
+    fit_placed_leg,
+    fit_scan,
+    place_scan,
+)
 
-__all__ = ["FitOptions", "FitResult", "check_scan", "fit_calf", "fit_scan"]
+__all__ = ["FitOptions", "FitResult", "check_scan", "fit_calf", "fit_placed_leg", "fit_scan", "place_scan"]

@@ -33,7 +33,7 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
 from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
-from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
+from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
@@ -165,11 +165,21 @@ def fit_scan(scan: Scan, options: FitOptions | None = None, placement: LegPlacem
         leg = replace_leg(scan, placement)
     else:
         leg = place_leg(scan, options.side)
-    placed = time.perf_counter()
+    return fit_placed_leg(leg, len(scan.points_mm), options, placing_s=time.perf_counter() - started)
+
+
+def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | None = None,
+                   placing_s: float = 0.0) -> FitResult:
+    """:func:`fit_scan` after the leg is placed: ``leg`` is what :func:`place_scan` (or
+    :func:`app.geometry.placement.replace_leg`) cut out of a scan of ``n_scan_points``
+    points (scan mm: points (n, 3), faces (f, 3) or None).  ``placing_s`` is the time the
+    placement took (the result's ``calf_frame`` stage)."""
+    options = options or FitOptions()
+    options.validate()
     where = leg.placement
     local = where.frame.to_calf(leg.points)
-    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where, n_scan_points=len(scan.points_mm))
-    result.timings["calf_frame"] = placed - started
+    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where, n_scan_points=n_scan_points)
+    result.timings["calf_frame"] = placing_s
     if where.anterior_cue == "foot":
         # the foot is in the scan (it told front from back): the lowest point of the heel
         # (behind and below B's centroid) is the sole, the floor a standing person's
@@ -362,6 +372,12 @@ def check_scan(scan: Scan, options: FitOptions | None = None) -> LegPlacement:
     (the leg found, B, C and D present).  Raises FitFailure with the reason otherwise;
     returns the placement, which :func:`fit_scan` reuses (one placement per upload).
     Costs the calf-frame stage of a fit."""
+    return place_scan(scan, options).placement
+
+
+def place_scan(scan: Scan, options: FitOptions | None = None) -> PlacedLeg:
+    """:func:`check_scan` with the leg it cut out: :func:`fit_placed_leg` fits it without
+    reading, cleaning or splitting the scan again."""
     options = options or FitOptions()
     options.validate()
-    return place_leg(scan, options.side).placement
+    return place_leg(scan, options.side)
