@@ -203,12 +203,14 @@ def test_jobs_left_running_by_a_crash_are_picked_up_at_start(tmp_path):
 
 
 def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
-    """The upload check passed, but the stored scan vanished before the fit ran."""
+    """The upload check passed, but the stored scan vanished before the fit ran (and
+    with it the leg the check cut out, which the fit would otherwise start from)."""
     with serve(tmp_path, run_jobs=False) as accepting:
         response = upload(accepting, "bodyparts3d_right_leg.stl", None)
         sha = response.json()["scan_sha256"]
     stored = tmp_path / "scans" / sha[:2] / sha
     stored.unlink()
+    (tmp_path / "placed" / f"{response.json()['id']}.npz").unlink()
     with serve(tmp_path) as running:
         job = wait_for_job(running, response.headers["location"])
     assert job["status"] == "failed" and job["record_id"] is None
