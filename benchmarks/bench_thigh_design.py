@@ -28,6 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from app.geometry.anatomy.thigh import FOLD_MIN_BEND  # noqa: E402
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
 from app.geometry.garment.design import DesignInputs  # noqa: E402
@@ -123,11 +124,10 @@ def report(result: dict) -> str:
                      f"{r['verdict']} | {', '.join(r['failed_checks']) or '-'} |")
     designed = [r for r in every if r["outcome"] == "design"]
     with_g = {r["scan"][:5] for r in result["rows"] if r["outcome"] == "design"}
-    lines += ["", f"- generated legs whose scans reach the gluteal fold (G found, so AG can be designed): {len(with_g)} / "
-              f"{result['legs']}; on the others app.geometry.anatomy.thigh finds no fold: the back of the thigh bends "
-              "less below its rearmost point than a fold does (FOLD_MIN_BEND; the reasons below give each scan's bend: "
-              "the scan stops below the fold, or the generated leg's fold is too smooth to place), and an AG design is "
-              "refused saying so",
+    lines += ["", f"- generated legs with a scan whose gluteal fold is found (G, so AG can be designed): {len(with_g)} / "
+              f"{result['legs']}; where app.geometry.anatomy.thigh finds no fold (the scan stops below it, or the back "
+              f"bends less than FOLD_MIN_BEND = {FOLD_MIN_BEND:g}: the reasons below give each scan's bend) an AG design "
+              "is refused saying so; a smooth fold's cG carries its uncertainty, and a design graded from it is 'review'",
               f"- designed: {len(designed)} / {len(every)}; class at B: {sum(r['class_at_B'] for r in designed)}; "
               f"graded to G: {sum(r['graded_to_G'] for r in designed)}; Laplace within {LAPLACE_RTOL:.0%}: "
               f"{sum(r['laplace_worst_share'] <= LAPLACE_RTOL for r in designed)}; foot designed (cA and cY in the scan): "

@@ -62,13 +62,16 @@ def chart_points(scan, side: str | None) -> dict:
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
             "uncertainty": {m.point.name: m.uncertainty_mm for m in measured if m.uncertainty_mm is not None},
             "e_uncertain": any("no level crown" in w for w in record.warnings),
-            "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings)}
+            "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings),
+            # F has no warning of its own: its uncertainty comes from E's and G's
+            "f_uncertain": any(m.point.name == "cF" and m.uncertainty_mm is not None for m in measured)}
 
 
 def _warning_check(per_leg: list[dict], point: str) -> dict:
-    """Is a re-scan whose ``point`` (cE, cG) is more than 3 mm off the clean scan's warned
-    about (the record's warning that the point is uncertain)?"""
-    flag = {"cE": "e_uncertain", "cG": "g_uncertain"}[point]
+    """Is a re-scan whose ``point`` (cE, cF, cG) is more than 3 mm off the clean scan's
+    warned about (the record's warning that the point is uncertain; for cF, its stated
+    uncertainty)?"""
+    flag = {"cE": "e_uncertain", "cF": "f_uncertain", "cG": "g_uncertain"}[point]
     off = [(entry["scans"][k].get(flag, False), abs(entry["scans"][k][point] - entry["scans"]["mesh_clean"][point]))
            for entry in per_leg for k in RESCAN_KINDS
            if entry["scans"]["mesh_clean"].get(point) is not None and entry["scans"][k].get(point) is not None]
@@ -141,6 +144,7 @@ def main(legs: int = 8, seed: int = 11) -> dict:
     # smooth gluteal fold): is a re-scan whose cE / cG is off by more than 3 mm warned about?
     summary = {
         "e_warning": _warning_check(per_leg, "cE"),
+        "f_warning": _warning_check(per_leg, "cF"),
         "g_warning": _warning_check(per_leg, "cG"),
         "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
         "points": {p: {**_stats(errors[p]), "range_p95": _stats(ranges[p]).get("p95"),
@@ -208,8 +212,9 @@ def write(summary: dict) -> None:
             continue
         lines.append(f"| {kind} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | "
                      f"{L.get('p95', float('nan')):.2f} | {L.get('max', float('nan')):.2f} |")
-    for point, what in (("cE", "E without a level crown"), ("cG", "G at a smooth gluteal fold")):
-        w = summary["e_warning" if point == "cE" else "g_warning"]
+    for point, what in (("cE", "E without a level crown"), ("cF", "F halfway between an uncertain E or G"),
+                        ("cG", "G at a smooth gluteal fold")):
+        w = summary[f"{point[1].lower()}_warning"]
         p95 = w["unwarned_p95"]
         lines += ["", f"{what} (the record warns that {point} is uncertain): {w['warned']} of {w['rescans']} re-scans "
                   f"warned; {w['off_over_3mm_warned']} of the {w['off_over_3mm']} whose {point} is more than 3 mm off the "
