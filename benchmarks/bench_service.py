@@ -10,19 +10,25 @@ loop is bounded.
 
 from __future__ import annotations
 
-import json
 import os
-import platform
-import socket
-import statistics
-import subprocess
-import sys
-import tempfile
-import time
-from pathlib import Path
 
-import httpx
-import numpy as np
+# one BLAS thread, as benchmarks/bench_fit.py: the core's reference fit and the served
+# workers (which inherit this environment) alike, whatever the caller's shell sets
+for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(var, "1")
+
+import json  # noqa: E402
+import platform  # noqa: E402
+import socket  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import httpx  # noqa: E402
+import numpy as np  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -169,7 +175,7 @@ def main() -> None:
         "# Service benchmark",
         "",
         f"`calf-nurbs serve` with 2 worker processes and embedded SQLite, driven over loopback HTTP "
-        f"(httpx); Python {platform.python_version()}, {os.cpu_count()} cores. Reproduce: "
+        f"(httpx); Python {platform.python_version()}, {os.cpu_count()} cores, one BLAS thread. Reproduce: "
         "`.venv/bin/python benchmarks/bench_service.py`. Medians; the reference is the core's own "
         "load + fit of the same file in the same run (what `calf-nurbs fit` spends).",
         "",
