@@ -212,11 +212,12 @@ def write(summary: dict) -> None:
             continue
         lines.append(f"| {kind} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | "
                      f"{L.get('p95', float('nan')):.2f} | {L.get('max', float('nan')):.2f} |")
-    for point, what in (("cE", "E without a level crown"), ("cF", "F halfway between an uncertain E or G"),
+    for point, what in (("cE", "E without a level crown"), ("cF", "F halfway to an uncertain E or G"),
                         ("cG", "G at a smooth gluteal fold")):
         w = summary[f"{point[1].lower()}_warning"]
         p95 = w["unwarned_p95"]
-        lines += ["", f"{what} (the record warns that {point} is uncertain): {w['warned']} of {w['rescans']} re-scans "
+        said = f"the record states {point}'s uncertainty" if point == "cF" else f"the record warns that {point} is uncertain"
+        lines += ["", f"{what} ({said}): {w['warned']} of {w['rescans']} re-scans "
                   f"warned; {w['off_over_3mm_warned']} of the {w['off_over_3mm']} whose {point} is more than 3 mm off the "
                   f"clean scan's; {point} of the unwarned re-scans p95 {p95 if p95 is None else round(p95, 2)} mm; "
                   f"{w.get('within_stated', 0)} of the {w.get('stated', 0)} re-scans that state {point}'s uncertainty "
