@@ -174,13 +174,15 @@ def test_temporary_uploads_left_by_a_crash_are_removed_at_start_up(tmp_path):
     old = settings.tmp_dir / "upload-otherhost-123-x2"
     live = settings.tmp_dir / f"upload-{host}-{os.getppid()}-x3"  # a running process's upload in progress
     elsewhere = settings.tmp_dir / "upload-otherhost-456-x4"  # another host's, recent
-    for path in (crashed, old, live, elsewhere):
+    crashed_leg = settings.tmp_dir / f"upload-{host}-{dead}-x1.leg.npz"  # the leg its check cut out (placed_legs)
+    live_leg = settings.tmp_dir / f"upload-{host}-{os.getppid()}-x3.leg.npz"
+    for path in (crashed, old, live, elsewhere, crashed_leg, live_leg):
         path.write_bytes(b"part of a scan")
     two_hours_ago = time.time() - 7200
     os.utime(old, (two_hours_ago, two_hours_ago))
     with serve_settings(settings):
-        assert not crashed.exists() and not old.exists()
-        assert live.exists() and elsewhere.exists()
+        assert not crashed.exists() and not old.exists() and not crashed_leg.exists()
+        assert live.exists() and elsewhere.exists() and live_leg.exists()
 
 
 def test_re_uploading_the_same_bytes_restores_a_missing_scan_file(tmp_path):
