@@ -47,7 +47,9 @@ class HandedLeg:
 
 
 def _placement_json(placement: dict) -> str:
-    return json.dumps(LegPlacement.from_dict(placement).to_dict(), sort_keys=True)
+    """The placement as the job stores it (LegPlacement.to_dict, through the database's
+    JSON and back), keys sorted: two equal placements give equal text."""
+    return json.dumps(placement, sort_keys=True)
 
 
 def write_placed_leg(path: str | Path, leg: PlacedLeg, scan: Scan) -> None:

@@ -33,10 +33,10 @@ class ScanStore:
     the upload check cut out of them (``placed``, one file per queued job: see
     :mod:`app.services.placed_legs`)."""
 
-    def __init__(self, root: Path, tmp: Path, placed: Path | None = None):
+    def __init__(self, root: Path, tmp: Path, placed: Path):
         self.root = root
         self.tmp = tmp
-        self.placed = placed if placed is not None else tmp.parent / "placed"
+        self.placed = placed
         for folder in (self.root, self.tmp, self.placed):
             folder.mkdir(parents=True, exist_ok=True)
 
