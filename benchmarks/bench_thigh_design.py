@@ -28,7 +28,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.anatomy.thigh import FOLD_MIN_BEND  # noqa: E402
+from app.geometry.anatomy.gluteal_fold import FOLD_MIN_BEND  # noqa: E402
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
 from app.geometry.garment.design import DesignInputs  # noqa: E402

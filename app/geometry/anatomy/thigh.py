@@ -5,7 +5,8 @@ thigh between them (RAL-GZ 387's cE, cF, cG, a thigh-high AG stocking's points).
 Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's right).
 Arrays: points (n, 3), faces (f, 3) or None.  Girths are tape girths (the convex hull of
 the section, :func:`app.geometry.sections.tape_girths`) in planes perpendicular to the
-leg's axis, every STEP_MM from D across the knee, every PROFILE_STEP_MM on up to G.  Heights are along the calf frame's z: on a standing
+leg's axis, every STEP_MM from D across the knee, every PROFILE_STEP_MM on up to G, and
+at E, F and G themselves.  Heights are along the calf frame's z: on a standing
 leg the thigh continues the shank's axis within a few degrees (the femur's 5-9 degree
 valgus tilts the plane by as much; a tape reads cos 7 deg = 0.7% more); a bent knee (its
 thigh cut free of the shank by the placement) has no thigh here, and says so.
@@ -14,7 +15,9 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
   knee's bulge (the femoral condyles and the patella), stays nearly level across it, and
   rises again along the thigh.  E is the middle of that level stretch: of the run of
   heights round the smallest girth slope (the slope over +-SLOPE_HALF_MM, searched
-  between D + 20 mm and D + 150 mm) whose slope stays within KNEE_LEVEL_SLOPE of it.
+  between D + 20 mm and D + 150 mm) whose slope stays within KNEE_LEVEL_SLOPE of it, its
+  ends read between the STEP_MM samples where the slope crosses that bound
+  (:func:`run_between_crossings`).
   ANSUR II puts the mid-patella 17 +- 9 mm above the tibial plateau (6,068 subjects); on
   the Visible Human male, whose D is 456 mm above the floor, E lands 50 mm above D, where
   the ANSUR proportions of a 1.8 m man put the mid-patella.
@@ -23,12 +26,13 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
   point of each STEP_MM of height) where the profile's slope turns from the thigh's
   gentle one to the buttock's steep one.  G is that corner: the largest drop of the
   slope between the thigh's back (100 mm above E) and the buttock's rearmost point, read
-  as the middle of the drop's peak (its full width at half maximum: the largest drop
-  alone wanders along a smooth fold's flat peak).  A scan without a buttock (its rearmost
-  point at the scan's top, as a body's leg cut by the placement below the hips has) has
-  no G; a back whose largest bend is under FOLD_MIN_BEND has none found, and says so
-  with the bend it has.  A fold smoother than a crease (its peak wider than a corner's)
-  is measured with a warning that gives how uncertain cG is.
+  as the middle of the drop's peak (its full width at half maximum, read between the
+  samples: the largest drop alone wanders along a smooth fold's flat peak);
+  :mod:`app.geometry.anatomy.gluteal_fold` finds it.  A scan without a buttock (its
+  rearmost point at the scan's top, as a body's leg cut by the placement below the hips
+  has) has no G; a back whose largest bend is under FOLD_MIN_BEND has none found, and
+  says so with the bend it has.  A fold smoother than a crease (its peak wider than a
+  corner's) is measured with a warning that gives how uncertain cG is.
 - **F** is halfway between E and G (RAL-GZ 387: the middle of the thigh).
 """
 
@@ -39,9 +43,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.sections import PolarSections, mesh_section_segments, tape_band_girths, tape_sections
+from app.geometry.anatomy.gluteal_fold import gluteal_fold, posterior_profile
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_between_crossings
+from app.geometry.sections import PolarSections, tape_band_girths, tape_sections
 
-STEP_MM = 2.0
 #: the stored thigh profile's spacing, mm (a knitting specification's usual step)
 PROFILE_STEP_MM = 5.0
 #: the knee's level stretch is searched this far above D, mm
@@ -49,28 +54,15 @@ KNEE_WINDOW_MM = (20.0, 150.0)
 #: the knee's level stretch: slopes within this of the least one, mm of girth per mm of height
 #: (the knee's crown rises 0.1-0.3, the thigh ~1)
 KNEE_LEVEL_SLOPE = 0.15
-SLOPE_HALF_MM = 10.0
+#: E's uncertainty: E read again with the level band this many times as wide.  On the 8
+#: generated legs' 88 scans (benchmarks/chart_accuracy.py 8 11) every re-scan whose cE
+#: lies more than 3 mm off its leg's clean scan then states an uncertainty that holds (3
+#: of 3, 30 of 30 stated), and a leg's re-scans agree on whether cE is uncertain; from the
+#: crownless run's length alone, 2 of the 3 did and the same leg's scans disagreed
+KNEE_LEVEL_SLOPE_JUDGED = (0.5, 1.5)
 #: a made-to-measure order's girths are held to this (mm): an E whose height is uncertain
 #: by more than this much of cE is said to be
 GIRTH_TOLERANCE_MM = 3.0
-#: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
-#: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
-#: the skin above it back forward by at least this much, mm.  The bend separates two kinds
-#: of back: a thigh's back without a fold bends 0.01-0.06 (the Visible Human legs, cut
-#: below the hips, as meshes and as clouds), a fold 0.18-0.36 (the smooth folds of 8
-#: generated MakeHuman legs, 11 scans each) and 0.51-0.56 (BodyParts3D's crease); the
-#: bound lies halfway between the fold-less backs' largest and the folds' smallest.  (At
-#: 0.3, inside the smooth folds' range, the same leg's fold was found on some re-scans
-#: and not on others: 25 of 96 scans of those 8 legs had G, 87 of the 88 that reach the
-#: thigh have it now; a smooth fold's G carries its uncertainty.)
-FOLD_MIN_BEND = 0.12
-BUTTOCK_BELOW_TOP_MM = 10.0
-BUTTOCK_RETURN_MM = 5.0
-CLOUD_PROFILE_HALF_MM = 4.0
-#: the back of the leg: this percentile of a section's y (the rearmost 2%), averaged over
-#: +-PROFILE_SMOOTH_MM of height
-REAR_PERCENTILE = 2.0
-PROFILE_SMOOTH_MM = 6.0
 #: the thigh's back, where the fold's chord starts: this far above E, mm
 THIGH_BACK_ABOVE_E_MM = 100.0
 
@@ -142,6 +134,24 @@ def _level(name: str, sections: PolarSections, girths: np.ndarray, index: int) -
     return LevelPoint(name, girth, height, at_mm=(float(centre[0]), float(centre[1]), height))
 
 
+def _level_between(name: str, sections: PolarSections, girths: np.ndarray, height_mm: float) -> LevelPoint:
+    """The point ``name`` at ``height_mm``, between two of ``sections`` (evenly spaced):
+    its girth and centre read linearly between theirs (a tape's reading across its width,
+    :func:`_read_across_tape`, then replaces the girth), or not closed there when either
+    of the two sections is not."""
+    z = sections.heights_mm
+    below = int(np.clip(np.searchsorted(z, height_mm, side="right") - 1, 0, len(z) - 2)) if len(z) > 1 else 0
+    above = min(below + 1, len(z) - 1)
+    t = float(np.clip((height_mm - z[below]) / (z[above] - z[below]), 0.0, 1.0)) if above != below else 0.0
+    weights = np.array([1 - t, t])
+    pair = girths[[below, above]]
+    if not np.isfinite(pair[weights > 0]).all():
+        return LevelPoint(name, None, None, "the section there is not closed (a hole, or the scan's edge)")
+    centre = weights[weights > 0] @ sections.centroids_mm[[below, above]][weights > 0]
+    girth = float(weights[weights > 0] @ pair[weights > 0])
+    return LevelPoint(name, girth, float(height_mm), at_mm=(float(centre[0]), float(centre[1]), float(height_mm)))
+
+
 @dataclass(frozen=True)
 class ThighMeasures:
     knee: LevelPoint  # E
@@ -164,105 +174,6 @@ class ThighMeasures:
 def _none(reason: str) -> ThighMeasures:
     return ThighMeasures(LevelPoint("E", None, None, reason), LevelPoint("F", None, None, reason),
                          LevelPoint("G", None, None, reason))
-
-
-def _posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
-    """The back of the leg at each height (k,), evenly spaced by STEP_MM: a low percentile
-    (REAR_PERCENTILE) of the y of the section's points - a mesh's exact plane-section
-    segment ends (:func:`app.geometry.sections.mesh_section_segments`), a cloud's points
-    within CLOUD_PROFILE_HALF_MM of the height - rather than their minimum, which a
-    scanner's noise drags back by its largest excursion; then averaged over +-PROFILE_SMOOTH_MM.
-    NaN where there is nothing.  mm."""
-    if faces is not None and len(faces):
-        plane, segments = mesh_section_segments(points, faces, heights)
-        group, y = np.repeat(plane, 2), segments[:, :, 1].ravel()
-    else:
-        index = np.rint((points[:, 2] - heights[0]) / STEP_MM).astype(np.int64)
-        reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
-        # each point counts for the heights within reach of it
-        offsets = np.arange(-reach, reach + 1)
-        group = (index[:, None] + offsets[None, :]).ravel()
-        y = np.repeat(points[:, 1], len(offsets))
-        keep = (group >= 0) & (group < len(heights))
-        group, y = group[keep], y[keep]
-    rear = np.full(len(heights), np.nan)
-    if not len(group):
-        return rear
-    order = np.lexsort((y, group))
-    group, y = group[order], y[order]
-    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
-    counts = np.diff(np.r_[starts, len(group)])
-    pick = starts + np.floor(REAR_PERCENTILE / 100 * (counts - 1)).astype(np.int64)
-    rear[group[starts]] = y[pick]
-    finite = np.isfinite(rear)
-    reach = int(round(PROFILE_SMOOTH_MM / STEP_MM))
-    if finite.sum() > 2 * reach + 1:
-        filled = np.interp(heights, heights[finite], rear[finite])
-        kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
-        smooth = np.convolve(np.pad(filled, reach, mode="edge"), kernel, mode="valid")
-        rear = np.where(finite, smooth, np.nan)
-    return rear
-
-
-@dataclass(frozen=True)
-class GlutealFold:
-    """The gluteal fold found in the posterior profile: ``index`` into the heights, or
-    None with the ``reason``; ``excess_half_width_mm`` how much wider than a corner the
-    bend's peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's
-    own: 0 for a crease, the fold's own half extent for a smooth one)."""
-
-    index: int | None
-    reason: str | None
-    excess_half_width_mm: float = 0.0
-
-
-def _gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
-    """The gluteal fold in ``heights`` (k,), evenly spaced by STEP_MM.  ``rear`` (k,) the
-    posterior profile (rearmost y, mm; NaN where empty).  The buttock is the profile's
-    rearmost bulge above ``above_mm``: its rearmost point must lie BUTTOCK_BELOW_TOP_MM
-    under the scan's top and the skin above it come forward again (else the scan was cut
-    through the buttock or below it).  The fold is the sharpest bend of the profile below
-    it: the largest drop of the profile's slope dy/dz (over +-SLOPE_HALF_MM, each side of
-    the height), at least FOLD_MIN_BEND; G is the middle of the run of heights round it
-    whose bend is at least half the largest (the peak's full width at half maximum).
-
-    How wide the fold is: a corner of the profile (a crease) read by slopes over
-    +-SLOPE_HALF_MM gives a triangular bend peak whose half width at half maximum is
-    SLOPE_HALF_MM; a fold smoother than a crease widens it by its own half extent, over
-    which a tape's "below the fold" is a matter of judgement."""
-    lag = int(round(SLOPE_HALF_MM / STEP_MM))
-    valid = np.flatnonzero(np.isfinite(rear) & (heights >= above_mm))
-    cut = "the scan stops below the gluteal fold (the top of the thigh)"
-    if len(valid) < 6 * lag:
-        return GlutealFold(None, cut)
-    back = int(valid[np.argmin(rear[valid])])
-    above = np.flatnonzero(np.isfinite(rear) & (heights > heights[back]))
-    if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
-        return GlutealFold(None, cut)
-    filled = np.interp(heights, heights[np.isfinite(rear)], rear[np.isfinite(rear)])
-    slope = np.full(len(heights), np.nan)
-    slope[lag:-lag] = (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
-    bend = np.full(len(heights), -np.inf)
-    bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
-    search = valid[valid < back]
-    bend_here = np.where(np.isfinite(bend[search]), bend[search], -np.inf)
-    if not len(search) or not np.isfinite(bend_here.max()):
-        return GlutealFold(None, cut)
-    peak = int(np.argmax(bend_here))
-    if bend_here[peak] < FOLD_MIN_BEND:
-        # no crease: either the scan ends below the fold (the back of a thigh runs nearly
-        # straight: a bend of a few hundredths) or the fold is too smooth to place
-        reason = (f"no gluteal fold found: the back of the thigh bends at most {max(bend_here[peak], 0.0):.2f} below "
-                  f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
-                  f"fold is too smooth to place; a tape at the fold decides")
-        return GlutealFold(None, reason)
-    low = np.flatnonzero(bend_here < bend_here[peak] / 2)  # the peak's run at half maximum
-    lo = int(low[low < peak].max(initial=-1)) + 1
-    hi = int(low[low > peak].min(initial=len(search))) - 1
-    half_width = (heights[search[hi]] - heights[search[lo]]) / 2 + STEP_MM / 2
-    # G is the middle of that run, as E is of the knee's level stretch: the largest bend
-    # alone wanders along a smooth fold's flat peak with a scanner's noise
-    return GlutealFold(int(search[(lo + hi) // 2]), None, max(half_width - SLOPE_HALF_MM, 0.0))
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
@@ -290,43 +201,57 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # stretch with a scanner's noise), as C is the middle of the calf's crown
     inside = np.flatnonzero(window)
     least = int(inside[np.argmin(slope[inside])])
-    off_level = np.flatnonzero(~(window & (slope <= slope[least] + KNEE_LEVEL_SLOPE)))
-    lo = int(off_level[off_level < least].max(initial=-1)) + 1  # the run's ends round the least slope
-    hi = int(off_level[off_level > least].min(initial=len(slope))) - 1
-    e = (lo + hi) // 2
-    knee = _read_across_tape(_level("E", knee_sections, girth, e), points, faces)  # knee_span: a prefix of heights
+    level = run_between_crossings(heights, slope, window, least, slope[least] + KNEE_LEVEL_SLOPE)
+    e_mm = level.middle_mm
+    # knee_span is a prefix of heights: its sections are indexed as heights are
+    knee = _read_across_tape(_level_between("E", knee_sections, girth, e_mm), points, faces)
     warnings: tuple[str, ...] = ()
-    spread = (hi - lo) * STEP_MM / 2.0
-    e_uncertain = bool(least in (inside[0], inside[-1]) and knee.height_mm is not None
-                       and spread * slope[least] > GIRTH_TOLERANCE_MM)
+    crownless = bool(least in (inside[0], inside[-1]))
+    # how far E moves with the level band's width, a judgement (KNEE_LEVEL_SLOPE): E read
+    # with the band half and one and a half times as wide; a crown's sharp ends keep it
+    # in place, a knee whose slope rises slowly through the band's bound lets it wander
+    measured = np.isfinite(girth)
+    e_girth = float(np.interp(e_mm, heights[measured], girth[measured]))
+    moved_mm, moved_girth = 0.0, 0.0
+    for factor in KNEE_LEVEL_SLOPE_JUDGED:
+        z = run_between_crossings(heights, slope, window, least, slope[least] + factor * KNEE_LEVEL_SLOPE).middle_mm
+        moved_mm = max(moved_mm, abs(z - e_mm))
+        moved_girth = max(moved_girth, abs(float(np.interp(z, heights[measured], girth[measured])) - e_girth))
+    if crownless:
+        # the least slope at the window's end: no level crown to find (the girth rises
+        # all the way through the knee, as on every generated MakeHuman leg): E may lie
+        # anywhere along the least-rising stretch, half its length either way
+        spread = (level.top_mm - level.bottom_mm) / 2.0
+        moved_mm, moved_girth = max(moved_mm, spread), max(moved_girth, spread * float(slope[least]))
+    e_uncertain = bool(knee.height_mm is not None and moved_girth > GIRTH_TOLERANCE_MM)
     if e_uncertain:
-        knee = dataclasses.replace(knee, uncertainty_mm=float(spread * slope[least]))
-        # the least slope at the window's end: the girth has no level crown to find (it
-        # rises all the way through the knee, as on every generated MakeHuman leg), so E
-        # is where a noisy threshold crossing ends the least-rising stretch; said when that
-        # moves cE by more than an order's girths are held to
-        warnings = (f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
-                    f"from {KNEE_WINDOW_MM[0]:.0f} to {KNEE_WINDOW_MM[1]:.0f} mm above D, so E (cE, lE) is the middle "
-                    f"of its least-rising stretch, uncertain by about {spread:.0f} mm of height and "
-                    f"{spread * slope[least]:.0f} mm of cE; a tape at the middle of the patella decides",)
+        knee = dataclasses.replace(knee, uncertainty_mm=moved_girth)
+        # said when that moves cE by more than an order's girths are held to
+        why = (f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
+               f"from {KNEE_WINDOW_MM[0]:.0f} to {KNEE_WINDOW_MM[1]:.0f} mm above D, so E (cE, lE) is the middle "
+               f"of its least-rising stretch" if crownless else
+               "the knee's level stretch has no sharp ends (its girth's slope leaves the level slowly), so E (cE, lE), "
+               "its middle, moves with where the stretch is taken to end")
+        warnings = (f"{why}, uncertain by about {moved_mm:.0f} mm of height and {moved_girth:.0f} mm of cE; "
+                    f"a tape at the middle of the patella decides",)
     # G: the gluteal fold, the corner of the posterior profile below the buttock
-    rear = _posterior_profile(points, faces, heights)
-    fold = _gluteal_fold(heights, rear, heights[e] + THIGH_BACK_ABOVE_E_MM, top)
+    rear = posterior_profile(points, faces, heights)
+    fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
     if fold.index is None:
         return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
                              warnings=warnings)
-    g = fold.index
-    f = int(round((e + g) / 2))
-    profile_z = np.unique(np.r_[np.arange(d_mm, heights[g], PROFILE_STEP_MM), heights[g]])  # D ... G, G included
-    planes = np.unique(np.r_[profile_z, heights[f]])
+    g_mm = float(fold.height_mm if fold.height_mm is not None else heights[fold.index])
+    f_mm = (e_mm + g_mm) / 2
+    profile_z = np.unique(np.r_[np.arange(d_mm, g_mm, PROFILE_STEP_MM), g_mm])  # D ... G, G included
+    planes = np.unique(np.r_[profile_z, f_mm])
     sections = tape_sections(points, faces, planes)
     planes_girth = sections.tape_perimeters()
-    top_of_thigh = _level("G", sections, planes_girth, int(np.searchsorted(planes, heights[g])))
+    top_of_thigh = _level("G", sections, planes_girth, int(np.searchsorted(planes, g_mm)))
     if top_of_thigh.girth_mm is None:
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
                              warnings=warnings)
-    mid_thigh = _read_across_tape(_level("F", sections, planes_girth, int(np.searchsorted(planes, heights[f]))), points, faces)
+    mid_thigh = _read_across_tape(_level("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), points, faces)
     top_of_thigh = _read_across_tape(top_of_thigh, points, faces)
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
@@ -340,8 +265,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     if g_uncertain or e_uncertain:
         # F lies halfway: its height is uncertain by half of E's and G's, its girth by that
         # times the profile's slope at F
-        f_height = (spread if e_uncertain else 0.0) / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
-        f_slope = float(np.interp(heights[f], profile_z, np.gradient(profile_g, profile_z))) if len(profile_z) > 1 else 0.0
+        f_height = (moved_mm if e_uncertain else 0.0) / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
+        f_slope = float(np.interp(f_mm, profile_z, np.gradient(profile_g, profile_z))) if len(profile_z) > 1 else 0.0
         if f_height * abs(f_slope) > GIRTH_TOLERANCE_MM:
             mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=float(f_height * abs(f_slope)))
     if g_uncertain:

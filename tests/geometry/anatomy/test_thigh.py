@@ -69,6 +69,18 @@ def test_a_leg_of_revolution_gives_its_knee_its_fold_and_the_middle_of_its_thigh
         assert point.as_dict()["at_mm"] == list(point.at_mm)
 
 
+@pytest.mark.parametrize("shift_mm", [0.5, 1.0, 1.5])
+def test_the_points_follow_the_leg_between_the_sampled_heights(shift_mm):
+    """The leg moved up by less than a sample's spacing (STEP_MM) with the sampled heights
+    kept: E, F and G move with it (they are read between the samples, not held to them:
+    held, they move by 0 or a whole step), and so do their girths' heights."""
+    still = thigh_measures(_leg(), None, D, knee_bent=False)
+    moved = thigh_measures(_leg() + [0.0, 0.0, shift_mm], None, D, knee_bent=False)
+    for a, b in ((still.knee, moved.knee), (still.mid_thigh, moved.mid_thigh), (still.top_of_thigh, moved.top_of_thigh)):
+        assert b.height_mm - a.height_mm == pytest.approx(shift_mm, abs=0.4)
+        assert b.at_mm[2] == b.height_mm
+
+
 def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
     """A knee whose girth rises through it at 0.7 mm per mm and more (the generated
     MakeHuman legs' knees): E is read, with a warning that gives its uncertainty; the leg
@@ -79,6 +91,14 @@ def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
     said = float(re.search(r"and (\d+) mm of cE", rising.warnings[0]).group(1))
     assert rising.knee.uncertainty_mm == pytest.approx(said, abs=0.5)
     assert thigh_measures(_leg(), None, D, knee_bent=False).warnings == ()
+    # re-scans of the rising knee (the cloud with 0.3 mm of noise): each says cE is
+    # uncertain, and each reads within what it says of the clean scan's cE
+    rng = np.random.default_rng(7)
+    clean = _leg(radius=lambda z: 57.0 + 0.1 * z + 2e-4 * z**2)
+    for _ in range(4):
+        rescan = thigh_measures(clean + rng.normal(0.0, 0.3, clean.shape), None, D, knee_bent=False)
+        assert rescan.knee.uncertainty_mm is not None
+        assert abs(rescan.knee.girth_mm - rising.knee.girth_mm) <= rescan.knee.uncertainty_mm
 
 
 def test_a_smooth_gluteal_fold_is_measured_and_said_to_be_uncertain_and_a_faint_one_is_not_measured():

@@ -1,0 +1,143 @@
+"""The gluteal fold, where the back of the thigh turns into the buttock: the top of the
+thigh, RAL-GZ 387's G (a thigh-high AG stocking's top), read from the leg's posterior
+profile (app.geometry.anatomy.thigh puts cG, and F halfway to it, on the order form).
+
+Frame: the calf frame (mm; z up the leg from B = 0, y anterior).  Arrays: points (n, 3),
+faces (f, 3) or None; heights (k,) evenly spaced by STEP_MM.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_between_crossings
+from app.geometry.sections import mesh_section_segments
+
+#: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
+#: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
+#: the skin above it back forward by at least this much, mm.  The bend separates two kinds
+#: of back: a thigh's back without a fold bends 0.01-0.06 (the Visible Human legs, cut
+#: below the hips, as meshes and as clouds), a fold 0.18-0.36 (the smooth folds of 8
+#: generated MakeHuman legs, 11 scans each) and 0.51-0.56 (BodyParts3D's crease); the
+#: bound lies halfway between the fold-less backs' largest and the folds' smallest.  (At
+#: 0.3, inside the smooth folds' range, the same leg's fold was found on some re-scans
+#: and not on others: 25 of 96 scans of those 8 legs had G, 87 of the 88 that reach the
+#: thigh have it now; a smooth fold's G carries its uncertainty.)
+FOLD_MIN_BEND = 0.12
+BUTTOCK_BELOW_TOP_MM = 10.0
+BUTTOCK_RETURN_MM = 5.0
+#: a cloud's posterior profile at a height: the points within one STEP_MM bin of it (+-3 mm
+#: of height).  The rearmost points of a band lie where the back slopes furthest back, at
+#: the band's edge, so a wide band moves the profile's corner.  Measured on the 8
+#: generated legs' 6 clouds each (benchmarks/chart_accuracy.py 8 11, against each leg's
+#: clean mesh): at +-5 mm, G's median 0.6 mm below the mesh's, cG of one leg's scans apart
+#: p95 2.34 mm; the bin's points alone (+-1 mm: 150-180 points on the sparsest clouds, the
+#: rear 2% three of them) put two sparse clouds' G 13 and 18 mm off; at +-3 mm (470-530
+#: points), G's median 0.0 mm off and cG apart p95 1.77 mm (lG's p95 4.9 mm, 4.6 at +-5)
+CLOUD_PROFILE_HALF_MM = 2.0
+#: the back of the leg: this percentile of a section's y (the rearmost 2%), averaged over
+#: +-PROFILE_SMOOTH_MM of height
+REAR_PERCENTILE = 2.0
+PROFILE_SMOOTH_MM = 6.0
+
+
+def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+    """The back of the leg at each height (k,), evenly spaced by STEP_MM: a low percentile
+    (REAR_PERCENTILE) of the y of the section's points - a mesh's exact plane-section
+    segment ends (:func:`app.geometry.sections.mesh_section_segments`), a cloud's points
+    within CLOUD_PROFILE_HALF_MM of the height - rather than their minimum, which a
+    scanner's noise drags back by its largest excursion; then averaged over +-PROFILE_SMOOTH_MM.
+    NaN where there is nothing.  mm."""
+    if faces is not None and len(faces):
+        plane, segments = mesh_section_segments(points, faces, heights)
+        group, y = np.repeat(plane, 2), segments[:, :, 1].ravel()
+    else:
+        index = np.rint((points[:, 2] - heights[0]) / STEP_MM).astype(np.int64)
+        reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
+        # each point counts for the heights within reach of it
+        offsets = np.arange(-reach, reach + 1)
+        group = (index[:, None] + offsets[None, :]).ravel()
+        y = np.repeat(points[:, 1], len(offsets))
+        keep = (group >= 0) & (group < len(heights))
+        group, y = group[keep], y[keep]
+    rear = np.full(len(heights), np.nan)
+    if not len(group):
+        return rear
+    order = np.lexsort((y, group))
+    group, y = group[order], y[order]
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    counts = np.diff(np.r_[starts, len(group)])
+    pick = starts + np.floor(REAR_PERCENTILE / 100 * (counts - 1)).astype(np.int64)
+    rear[group[starts]] = y[pick]
+    finite = np.isfinite(rear)
+    reach = int(round(PROFILE_SMOOTH_MM / STEP_MM))
+    if finite.sum() > 2 * reach + 1:
+        filled = np.interp(heights, heights[finite], rear[finite])
+        kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
+        smooth = np.convolve(np.pad(filled, reach, mode="edge"), kernel, mode="valid")
+        rear = np.where(finite, smooth, np.nan)
+    return rear
+
+
+@dataclass(frozen=True)
+class GlutealFold:
+    """The gluteal fold found in the posterior profile: ``index`` into the heights, or
+    None with the ``reason``; ``excess_half_width_mm`` how much wider than a corner the
+    bend's peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's
+    own: 0 for a crease, the fold's own half extent for a smooth one)."""
+
+    index: int | None
+    reason: str | None
+    excess_half_width_mm: float = 0.0
+    #: G's height (mm): the middle of the bend's peak, its ends read between the samples
+    height_mm: float | None = None
+
+
+def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
+    """The gluteal fold in ``heights`` (k,), evenly spaced by STEP_MM.  ``rear`` (k,) the
+    posterior profile (rearmost y, mm; NaN where empty).  The buttock is the profile's
+    rearmost bulge above ``above_mm``: its rearmost point must lie BUTTOCK_BELOW_TOP_MM
+    under the scan's top and the skin above it come forward again (else the scan was cut
+    through the buttock or below it).  The fold is the sharpest bend of the profile below
+    it: the largest drop of the profile's slope dy/dz (over +-SLOPE_HALF_MM, each side of
+    the height), at least FOLD_MIN_BEND; G is the middle of the run of heights round it
+    whose bend is at least half the largest (the peak's full width at half maximum).
+
+    How wide the fold is: a corner of the profile (a crease) read by slopes over
+    +-SLOPE_HALF_MM gives a triangular bend peak whose half width at half maximum is
+    SLOPE_HALF_MM; a fold smoother than a crease widens it by its own half extent, over
+    which a tape's "below the fold" is a matter of judgement."""
+    lag = int(round(SLOPE_HALF_MM / STEP_MM))
+    valid = np.flatnonzero(np.isfinite(rear) & (heights >= above_mm))
+    cut = "the scan stops below the gluteal fold (the top of the thigh)"
+    if len(valid) < 6 * lag:
+        return GlutealFold(None, cut)
+    back = int(valid[np.argmin(rear[valid])])
+    above = np.flatnonzero(np.isfinite(rear) & (heights > heights[back]))
+    if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
+        return GlutealFold(None, cut)
+    filled = np.interp(heights, heights[np.isfinite(rear)], rear[np.isfinite(rear)])
+    slope = np.full(len(heights), np.nan)
+    slope[lag:-lag] = (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+    bend = np.full(len(heights), -np.inf)
+    bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
+    search = valid[valid < back]
+    bend_here = np.where(np.isfinite(bend[search]), bend[search], -np.inf)
+    if not len(search) or not np.isfinite(bend_here.max()):
+        return GlutealFold(None, cut)
+    peak = int(np.argmax(bend_here))
+    if bend_here[peak] < FOLD_MIN_BEND:
+        # no crease: either the scan ends below the fold (the back of a thigh runs nearly
+        # straight: a bend of a few hundredths) or the fold is too smooth to place
+        reason = (f"no gluteal fold found: the back of the thigh bends at most {max(bend_here[peak], 0.0):.2f} below "
+                  f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
+                  f"fold is too smooth to place; a tape at the fold decides")
+        return GlutealFold(None, reason)
+    # the peak's run at half maximum, its ends where the bend crosses half the peak's
+    run = run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] / 2)
+    half_width = (run.top_mm - run.bottom_mm) / 2
+    # G is the middle of that run, as E is of the knee's level stretch: the largest bend
+    # alone wanders along a smooth fold's flat peak with a scanner's noise
+    return GlutealFold(int(search[(run.first + run.last) // 2]), None, max(half_width - SLOPE_HALF_MM, 0.0), run.middle_mm)

@@ -1,0 +1,59 @@
+"""Runs of a profile sampled along the leg: the samples round one where a value stays
+under a threshold, their ends read between the samples (app.geometry.anatomy.thigh's
+knee, app.geometry.anatomy.gluteal_fold's fold).
+
+Heights in mm along the calf frame's z; arrays (k,) evenly spaced by STEP_MM.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: the thigh's profiles (girth, back of the leg) are sampled every STEP_MM of height, mm
+STEP_MM = 2.0
+#: their slopes are read over +-SLOPE_HALF_MM of height, mm
+SLOPE_HALF_MM = 10.0
+
+
+@dataclass(frozen=True)
+class Run:
+    """A run of heights round a sample: its first and last samples (indices) and its ends
+    ``bottom_mm``, ``top_mm`` read between the samples (mm)."""
+
+    first: int
+    last: int
+    bottom_mm: float
+    top_mm: float
+
+    @property
+    def middle_mm(self) -> float:
+        return (self.bottom_mm + self.top_mm) / 2
+
+
+def run_between_crossings(heights: np.ndarray, value: np.ndarray, inside: np.ndarray, index: int, threshold: float) -> Run:
+    """The run of samples round ``index`` where ``inside`` holds and ``value`` is at most
+    ``threshold``: ``heights``, ``value``, ``inside`` (k,), heights evenly spaced (mm).
+    Where the run stops because ``value`` crosses the threshold, its end is the crossing
+    read linearly between the last sample in and the first out (the threshold's level
+    set, as a contour is read between grid samples); where it stops at the end of
+    ``inside`` (a search window), its end is its last sample.  A run's ends held to the
+    samples move by a whole STEP_MM when noise tips one sample over the threshold; read
+    between them they move by the value's change over the step (chart_accuracy 8 11:
+    one leg's re-scans apart, p95, cF 3.81 -> 2.37 mm, cG 2.67 -> 2.34 mm, before the
+    cloud profile's band was narrowed)."""
+    member = inside & (value <= threshold)
+    out = np.flatnonzero(~member)
+    first = int(out[out < index].max(initial=-1)) + 1
+    last = int(out[out > index].min(initial=len(value))) - 1
+
+    def end(last_in: int, first_out: int) -> float:
+        crosses = (0 <= first_out < len(value) and bool(inside[first_out]) and np.isfinite(value[first_out])
+                   and value[first_out] > threshold)
+        if not crosses:
+            return float(heights[last_in])
+        t = (threshold - value[last_in]) / (value[first_out] - value[last_in])
+        return float(heights[last_in] + t * (heights[first_out] - heights[last_in]))
+
+    return Run(first, last, end(first, first - 1), end(last, last + 1))
