@@ -176,26 +176,22 @@ def _none(reason: str) -> ThighMeasures:
                          LevelPoint("G", None, None, reason))
 
 
-def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
-    """E, F, G of the module docstring (mm), or why not."""
-    if knee_bent:
-        return _none("the knee is bent: the thigh is cut free of the shank (a thigh-high stocking is measured standing)")
-    top = float(points[:, 2].max())
-    if top < d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM:
-        return _none(f"the scan ends {top - d_mm:.0f} mm above D, below the top of the knee")
-    heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
-    # girths every STEP_MM only where E is searched (its window and the slope's reach):
-    # above it only F, G and the profile's PROFILE_STEP_MM planes are read, each plane a
-    # section of its own (tape_sections), so the thigh's sections cost a third of reading
-    # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
-    knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
-    knee_sections = tape_sections(points, faces, heights[knee_span])
-    girth = np.full(len(heights), np.nan)
-    girth[knee_span] = knee_sections.tape_perimeters()
-    slope = _girth_slope(girth)
-    window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
-    if not window.any():
-        return _none("the knee has no closed sections in the scan (a hole or a crop)")
+@dataclass(frozen=True)
+class KneeMiddle:
+    """E found: the point, its height (mm; read even where its section is not closed),
+    how uncertain that height is (mm; 0 within the tolerance) and the warning saying so."""
+
+    point: LevelPoint
+    height_mm: float
+    height_uncertainty_mm: float
+    warnings: tuple[str, ...]
+
+
+def _middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, knee_sections: PolarSections,
+                        girth: np.ndarray, slope: np.ndarray, window: np.ndarray) -> KneeMiddle:
+    """E (module docstring) on ``heights`` (k,) every STEP_MM from D, whose prefix
+    ``knee_sections`` are, with their tape ``girth`` (k,; NaN above them), its ``slope``
+    (k,) and the ``window`` (k,) E is searched in."""
     # the level stretch: the run of heights round the least slope whose slope stays within
     # KNEE_LEVEL_SLOPE of it; E is its middle (the least slope alone wanders along a flat
     # stretch with a scanner's noise), as C is the middle of the calf's crown
@@ -234,6 +230,31 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
                "its middle, moves with where the stretch is taken to end")
         warnings = (f"{why}, uncertain by about {moved_mm:.0f} mm of height and {moved_girth:.0f} mm of cE; "
                     f"a tape at the middle of the patella decides",)
+    return KneeMiddle(knee, e_mm, moved_mm if e_uncertain else 0.0, warnings)
+
+
+def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
+    """E, F, G of the module docstring (mm), or why not."""
+    if knee_bent:
+        return _none("the knee is bent: the thigh is cut free of the shank (a thigh-high stocking is measured standing)")
+    top = float(points[:, 2].max())
+    if top < d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM:
+        return _none(f"the scan ends {top - d_mm:.0f} mm above D, below the top of the knee")
+    heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
+    # girths every STEP_MM only where E is searched (its window and the slope's reach):
+    # above it only F, G and the profile's PROFILE_STEP_MM planes are read, each plane a
+    # section of its own (tape_sections), so the thigh's sections cost a third of reading
+    # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
+    knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
+    knee_sections = tape_sections(points, faces, heights[knee_span])
+    girth = np.full(len(heights), np.nan)
+    girth[knee_span] = knee_sections.tape_perimeters()
+    slope = _girth_slope(girth)
+    window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
+    if not window.any():
+        return _none("the knee has no closed sections in the scan (a hole or a crop)")
+    middle = _middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window)
+    knee, e_mm, warnings = middle.point, middle.height_mm, middle.warnings
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = posterior_profile(points, faces, heights)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
@@ -262,10 +283,10 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     near = profile_z >= profile_z[-1] - 2 * SLOPE_HALF_MM
     girth_slope = float(np.polyfit(profile_z[near], profile_g[near], 1)[0]) if near.sum() >= 2 else 0.0
     g_uncertain = fold.excess_half_width_mm * abs(girth_slope) > GIRTH_TOLERANCE_MM
-    if g_uncertain or e_uncertain:
+    if g_uncertain or middle.height_uncertainty_mm:
         # F lies halfway: its height is uncertain by half of E's and G's, its girth by that
         # times the profile's slope at F
-        f_height = (moved_mm if e_uncertain else 0.0) / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
+        f_height = middle.height_uncertainty_mm / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
         f_slope = float(np.interp(f_mm, profile_z, np.gradient(profile_g, profile_z))) if len(profile_z) > 1 else 0.0
         if f_height * abs(f_slope) > GIRTH_TOLERANCE_MM:
             mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=float(f_height * abs(f_slope)))
