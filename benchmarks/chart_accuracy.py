@@ -61,7 +61,9 @@ def chart_points(scan, side: str | None) -> dict:
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
             "uncertainty": {m.point.name: m.uncertainty_mm for m in measured if m.uncertainty_mm is not None},
-            "e_uncertain": any("no level crown" in w for w in record.warnings),
+            # E's warning has two wordings (no level crown; a level stretch without sharp
+            # ends): both state cE's uncertainty
+            "e_uncertain": any(m.point.name == "cE" and m.uncertainty_mm is not None for m in measured),
             "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings),
             # F has no warning of its own: its uncertainty comes from E's and G's
             "f_uncertain": any(m.point.name == "cF" and m.uncertainty_mm is not None for m in measured)}
@@ -212,7 +214,8 @@ def write(summary: dict) -> None:
             continue
         lines.append(f"| {kind} | {g['p50']:.2f} | {g['p95']:.2f} | {g['max']:.2f} | "
                      f"{L.get('p95', float('nan')):.2f} | {L.get('max', float('nan')):.2f} |")
-    for point, what in (("cE", "E without a level crown"), ("cF", "F halfway to an uncertain E or G"),
+    for point, what in (("cE", "E uncertain (a knee without a level crown, or a stretch without sharp ends)"),
+                        ("cF", "F halfway to an uncertain E or G"),
                         ("cG", "G at a smooth gluteal fold")):
         w = summary[f"{point[1].lower()}_warning"]
         p95 = w["unwarned_p95"]
