@@ -41,8 +41,7 @@ def run_between_crossings(heights: np.ndarray, value: np.ndarray, inside: np.nda
     ``inside`` (a search window), its end is its last sample.  A run's ends held to the
     samples move by a whole STEP_MM when noise tips one sample over the threshold; read
     between them they move by the value's change over the step (chart_accuracy 8 11:
-    one leg's re-scans apart, p95, cF 3.81 -> 2.37 mm, cG 2.67 -> 2.34 mm, before the
-    cloud profile's band was narrowed)."""
+    one leg's re-scans apart, p95, cF 3.81 -> 2.37 mm, cG 2.67 -> 2.34 mm)."""
     member = inside & (value <= threshold)
     out = np.flatnonzero(~member)
     first = int(out[out < index].max(initial=-1)) + 1
