@@ -22,6 +22,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import find_peaks
 
+from app.geometry.anatomy.level_runs import run_around
 from app.geometry.errors import FailureReason, FitFailure, FootFound, RisesToEdge
 
 #: Gaussian smoothing of the circumference profile, mm; and the profile noise beyond
@@ -483,15 +484,6 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     raise max(failures, key=lambda item: (item[0], item[1]))[2]
 
 
-def _run_around(mask: np.ndarray, index: int) -> tuple[int, int]:
-    """First and last index (inclusive) of the connected run of True in ``mask`` (k,)
-    that holds ``index`` (``mask[index]`` is taken as True)."""
-    breaks = np.flatnonzero(~mask)
-    start = int(breaks[breaks < index].max()) + 1 if (breaks < index).any() else 0
-    stop = int(breaks[breaks > index].min()) - 1 if (breaks > index).any() else len(mask) - 1
-    return start, stop
-
-
 def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, high_mm: float) -> int:
     """Index of the middle of the calf's crown around the maximum at index ``ic``.
 
@@ -505,7 +497,7 @@ def crown_centre(heights: np.ndarray, g: np.ndarray, ic: int, low_mm: float, hig
     level &= (heights > low_mm) & (heights < high_mm)
     if not level[ic]:
         return ic
-    start, stop = _run_around(level, ic)
+    start, stop = run_around(level, ic)
     middle = 0.5 * (heights[start] + heights[stop])
     return int(start + np.argmin(np.abs(heights[start : stop + 1] - middle)))
 
@@ -619,7 +611,7 @@ def height_tolerances(heights: np.ndarray, girth: np.ndarray, marks_mm: dict) ->
     for name, z in marks_mm.items():
         i = int(np.clip(np.searchsorted(heights, z), 0, len(heights) - 1))
         level = np.interp(z, heights, g)
-        first, last = _run_around(np.abs(g - level) <= max(CROWN_FRACTION * level, 1.0), i)
+        first, last = run_around(np.abs(g - level) <= max(CROWN_FRACTION * level, 1.0), i)
         start, stop = heights[first], heights[last]
         if name == "B":
             out[name] = float(stop - z)

@@ -32,6 +32,15 @@ class Run:
         return (self.bottom_mm + self.top_mm) / 2
 
 
+def run_around(mask: np.ndarray, index: int) -> tuple[int, int]:
+    """First and last index (inclusive) of the connected run of True in ``mask`` (k,)
+    that holds ``index`` (``mask[index]`` is taken as True)."""
+    breaks = np.flatnonzero(~mask)
+    start = int(breaks[breaks < index].max()) + 1 if (breaks < index).any() else 0
+    stop = int(breaks[breaks > index].min()) - 1 if (breaks > index).any() else len(mask) - 1
+    return start, stop
+
+
 def run_between_crossings(heights: np.ndarray, value: np.ndarray, inside: np.ndarray, index: int, threshold: float) -> Run:
     """The run of samples round ``index`` where ``inside`` holds and ``value`` is at most
     ``threshold``: ``heights``, ``value``, ``inside`` (k,), heights evenly spaced (mm).
@@ -42,10 +51,7 @@ def run_between_crossings(heights: np.ndarray, value: np.ndarray, inside: np.nda
     samples move by a whole STEP_MM when noise tips one sample over the threshold; read
     between them they move by the value's change over the step (chart_accuracy 8 11:
     one leg's re-scans apart, p95, cF 3.81 -> 2.37 mm, cG 2.67 -> 2.34 mm)."""
-    member = inside & (value <= threshold)
-    out = np.flatnonzero(~member)
-    first = int(out[out < index].max(initial=-1)) + 1
-    last = int(out[out > index].min(initial=len(value))) - 1
+    first, last = run_around(inside & (value <= threshold), index)
 
     def end(last_in: int, first_out: int) -> float:
         crosses = (0 <= first_out < len(value) and bool(inside[first_out]) and np.isfinite(value[first_out])
