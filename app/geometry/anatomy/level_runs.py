@@ -1,6 +1,7 @@
 """Runs of a profile sampled along the leg: the samples round one where a value stays
-under a threshold, their ends read between the samples (app.geometry.anatomy.thigh's
-knee, app.geometry.anatomy.gluteal_fold's fold).
+under a threshold (:func:`run_around`: the calf's crown in app.geometry.anatomy.landmarks),
+their ends read between the samples (:func:`run_between_crossings`: the knee's level
+stretch in app.geometry.anatomy.thigh, the fold's peak in app.geometry.anatomy.gluteal_fold).
 
 Heights in mm along the calf frame's z; arrays (k,) evenly spaced by STEP_MM.
 """
