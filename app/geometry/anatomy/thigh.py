@@ -58,7 +58,8 @@ KNEE_LEVEL_SLOPE = 0.15
 #: generated legs' 88 scans (benchmarks/chart_accuracy.py 8 11) every re-scan whose cE
 #: lies more than 3 mm off its leg's clean scan then states an uncertainty that holds (3
 #: of 3, 30 of 30 stated), and a leg's re-scans agree on whether cE is uncertain; from the
-#: crownless run's length alone, 2 of the 3 did and the same leg's scans disagreed
+#: crownless run's length alone, 2 of the 3 stated one, 1 that held, and the same leg's
+#: scans disagreed
 KNEE_LEVEL_SLOPE_JUDGED = (0.5, 1.5)
 #: a made-to-measure order's girths are held to this (mm): an E whose height is uncertain
 #: by more than this much of cE is said to be
