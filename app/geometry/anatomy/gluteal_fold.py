@@ -85,16 +85,15 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
 
 @dataclass(frozen=True)
 class GlutealFold:
-    """The gluteal fold found in the posterior profile: ``index`` into the heights, or
-    None with the ``reason``; ``excess_half_width_mm`` how much wider than a corner the
-    bend's peak is (its half width at half maximum less SLOPE_HALF_MM, a sharp corner's
-    own: 0 for a crease, the fold's own half extent for a smooth one)."""
+    """The gluteal fold found in the posterior profile: G's ``height_mm`` (the middle of
+    the bend's peak, its ends read between the samples), or None with the ``reason``;
+    ``excess_half_width_mm`` how much wider than a corner the bend's peak is (its half
+    width at half maximum less SLOPE_HALF_MM, a sharp corner's own: 0 for a crease, the
+    fold's own half extent for a smooth one)."""
 
-    index: int | None
+    height_mm: float | None
     reason: str | None
     excess_half_width_mm: float = 0.0
-    #: G's height (mm): the middle of the bend's peak, its ends read between the samples
-    height_mm: float | None = None
 
 
 def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
@@ -142,4 +141,4 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     half_width = (run.top_mm - run.bottom_mm) / 2
     # G is the middle of that run, as E is of the knee's level stretch: the largest bend
     # alone wanders along a smooth fold's flat peak with a scanner's noise
-    return GlutealFold(int(search[(run.first + run.last) // 2]), None, max(half_width - SLOPE_HALF_MM, 0.0), run.middle_mm)
+    return GlutealFold(run.middle_mm, None, max(half_width - SLOPE_HALF_MM, 0.0))

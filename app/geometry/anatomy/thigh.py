@@ -117,7 +117,10 @@ def _read_across_tape(point: LevelPoint, points: np.ndarray, faces: np.ndarray |
     """The point's girth read across a tape's width (the median over the planes
     app.geometry.sections.TAPE_BAND_OFFSETS_MM about its height, as B, B1, C, D are:
     one plane spoiled by a scanner's noise or a hole's edge is outvoted), its height and
-    centre kept; the single plane's girth where the band has no reading."""
+    centre kept; the single plane's girth where the band has no reading.  One point per
+    reading: a cloud's section centres are medians of every CENTRE_STRIDE-th point of all
+    the planes read together (app.geometry.sections.cloud), so E, F and G read in one
+    call move by up to 0.16 mm on the generated clouds."""
     if point.girth_mm is None or point.height_mm is None:
         return point
     band = float(tape_band_girths(points, faces, np.array([point.height_mm]))[0])
@@ -259,10 +262,10 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = posterior_profile(points, faces, heights)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
-    if fold.index is None:
+    if fold.height_mm is None:
         return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
                              warnings=warnings)
-    g_mm = float(fold.height_mm if fold.height_mm is not None else heights[fold.index])
+    g_mm = fold.height_mm
     f_mm = (e_mm + g_mm) / 2
     profile_z = np.unique(np.r_[np.arange(d_mm, g_mm, PROFILE_STEP_MM), g_mm])  # D ... G, G included
     planes = np.unique(np.r_[profile_z, f_mm])
