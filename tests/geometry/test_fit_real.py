@@ -154,11 +154,14 @@ def test_the_vertices_of_a_body_scan_as_a_sparse_cloud_fit(n_points):
     assert any("the cloud is sparse" in w for w in sparse.warnings)
 
 
-@pytest.mark.parametrize("n_points,where", [(3_000, "the calf's cross-sections"), (2_000, "find the leg in")])
+@pytest.mark.parametrize("n_points,where", [(3_000, ("the calf's cross-sections",)),
+                                             (2_000, ("find the leg in", "the calf's cross-sections"))])
 def test_a_cloud_too_sparse_to_close_its_sections_says_so(n_points, where):
     """3k vertices over a body (its legs about 0.6 points per mm of height, under the
     1 per mm a 20 mm slab needs to close a section): refused as too_sparse with the
-    density found and needed - not as not_a_leg; 2k cannot even be placed, and say so."""
+    density found and needed - not as not_a_leg; 2k (0.4 per mm) may not even be placed,
+    or be placed by luck of the sample and refused at the calf's sections: either way
+    the refusal says where and why."""
     import trimesh
 
     from app.geometry.errors import FitFailure
@@ -171,7 +174,8 @@ def test_a_cloud_too_sparse_to_close_its_sections_says_so(n_points, where):
         fit_scan(load_scan(trimesh.PointCloud(cloud).export(file_type="ply"), file_type="ply", units="mm"),
                  FitOptions(side="right"))
     assert caught.value.reason.value == "too_sparse", caught.value.detail
-    assert where in caught.value.detail and "points per mm" in caught.value.detail
+    assert any(stage in caught.value.detail for stage in where), caught.value.detail
+    assert "points per mm" in caught.value.detail
     assert "1 point per mm" in caught.value.detail
 
 

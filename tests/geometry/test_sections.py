@@ -111,3 +111,24 @@ def test_star_hull_perimeters_are_scipys_convex_hulls():
         assert np.allclose(star_hull_perimeters(radii, angles), expected, rtol=0, atol=1e-9)
     circle = star_hull_perimeters(np.full((1, 360), 50.0), ray_angles(360))[0]
     assert circle == pytest.approx(2 * 360 * 50 * np.sin(np.pi / 360), abs=1e-9)  # a 360-gon
+
+
+def test_a_clouds_section_is_the_same_read_alone_or_with_other_heights():
+    """A section of a cloud depends on its own slab only: read alone, or in one call with
+    heights below and above it (whose slabs come first in the concatenated points), it
+    has the same centre and radii (to rounding) - so a point's girth does not change with what else
+    is measured in the same call."""
+    rng = np.random.default_rng(11)
+    n = 60_000
+    z = rng.uniform(0.0, 300.0, n)
+    theta = rng.uniform(0.0, 2 * np.pi, n)
+    radius = 45.0 + 0.05 * z + 4.0 * np.cos(2 * theta) + rng.normal(0.0, 0.6, n)  # a noisy, tapering oval
+    cloud = np.column_stack([3.0 + radius * np.cos(theta), -2.0 + radius * 1.2 * np.sin(theta), z])
+    alone = slice_points_polar(cloud, np.array([151.3]), 360)
+    for others in ([23.0, 151.3], [12.5, 40.0, 151.3, 230.0], [151.3, 260.0], [99.1, 101.7, 151.3]):
+        together = slice_points_polar(cloud, np.array(others), 360)
+        row = others.index(151.3)
+        # to rounding (batched sums add in another order): 1e-9 mm
+        np.testing.assert_allclose(together.centroids_mm[row], alone.centroids_mm[0], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(together.radii_mm[row], alone.radii_mm[0], rtol=0, atol=1e-9)
+        assert abs(together.tape_perimeters()[row] - alone.tape_perimeters()[0]) < 1e-9
