@@ -113,18 +113,23 @@ def _girth_slope(girth: np.ndarray) -> np.ndarray:
     return slope
 
 
-def _read_across_tape(point: LevelPoint, points: np.ndarray, faces: np.ndarray | None) -> LevelPoint:
-    """The point's girth read across a tape's width (the median over the planes
+def _read_across_tape(levels: tuple[LevelPoint, ...], points: np.ndarray, faces: np.ndarray | None
+                      ) -> tuple[LevelPoint, ...]:
+    """Each point's girth read across a tape's width (the median over the planes
     app.geometry.sections.TAPE_BAND_OFFSETS_MM about its height, as B, B1, C, D are:
     one plane spoiled by a scanner's noise or a hole's edge is outvoted), its height and
-    centre kept; the single plane's girth where the band has no reading.  One point per
-    reading: a cloud's section centres are medians of every CENTRE_STRIDE-th point of all
-    the planes read together (app.geometry.sections.cloud), so E, F and G read in one
-    call move by up to 0.16 mm on the generated clouds."""
-    if point.girth_mm is None or point.height_mm is None:
-        return point
-    band = float(tape_band_girths(points, faces, np.array([point.height_mm]))[0])
-    return point if not np.isfinite(band) else dataclasses.replace(point, girth_mm=band)
+    centre kept; the single plane's girth where the band has no reading.  The points are
+    read in one call: each plane's section depends on its own plane (a mesh's) or slab (a
+    cloud's) only, so reading them together gives what reading each alone does."""
+    readable = [i for i, level in enumerate(levels) if level.girth_mm is not None and level.height_mm is not None]
+    if not readable:
+        return levels
+    band = tape_band_girths(points, faces, np.array([levels[i].height_mm for i in readable]))
+    read = list(levels)
+    for i, girth in zip(readable, band):
+        if np.isfinite(girth):
+            read[i] = dataclasses.replace(levels[i], girth_mm=float(girth))
+    return tuple(read)
 
 
 def _level(name: str, sections: PolarSections, girths: np.ndarray, index: int) -> LevelPoint:
@@ -204,7 +209,7 @@ def _middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: n
     level = run_between_crossings(heights, slope, window, least, slope[least] + KNEE_LEVEL_SLOPE)
     e_mm = level.middle_mm
     # knee_span is a prefix of heights: its sections are indexed as heights are
-    knee = _read_across_tape(_level_between("E", knee_sections, girth, e_mm), points, faces)
+    (knee,) = _read_across_tape((_level_between("E", knee_sections, girth, e_mm),), points, faces)
     warnings: tuple[str, ...] = ()
     crownless = bool(least in (inside[0], inside[-1]))
     # how far E moves with the level band's width, a judgement (KNEE_LEVEL_SLOPE): E read
@@ -276,8 +281,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
                              warnings=warnings)
-    mid_thigh = _read_across_tape(_level("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), points, faces)
-    top_of_thigh = _read_across_tape(top_of_thigh, points, faces)
+    mid_thigh, top_of_thigh = _read_across_tape(
+        (_level("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces)
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
     profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
