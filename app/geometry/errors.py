@@ -55,6 +55,10 @@ class FitFailure(Exception):
         super().__init__(detail)
         self.reason = FailureReason(reason)
         self.detail = detail
+        #: girths (mm, in the unit the scan was read in) of the calf-like bulges the
+        #: landmark search found and set aside as on a rising flank (:class:`BulgeOnFlank`):
+        #: a placement refusal's evidence of a wrong unit (app.geometry.placement.leg_size)
+        self.flank_bulges_mm: tuple[float, ...] = ()
 
     def __reduce__(self):  # picklable across the worker-process boundary
         return (FitFailure, (self.reason, self.detail))
@@ -71,6 +75,18 @@ class FootFound(FitFailure):
     bulge with no ankle below it) when the two orientations of a scan disagree.
     ``girth_mm``: the girth of the section found to be a foot.  Crosses a process
     boundary as a plain :class:`FitFailure`."""
+
+    def __init__(self, detail: str, girth_mm: float):
+        super().__init__(FailureReason.NO_CALF, detail)
+        self.girth_mm = float(girth_mm)
+
+
+class BulgeOnFlank(FitFailure):
+    """A ``no_calf`` refusal of a calf candidate whose knee waist would be wider than it:
+    the girth keeps rising above it (a sparse cloud's noise bump on the calf's flank; on a
+    leg read in too large a unit, the real calf, whose knee waist the millimetre windows
+    miss).  ``girth_mm``: the candidate's girth.  Crosses a process boundary as a plain
+    :class:`FitFailure`."""
 
     def __init__(self, detail: str, girth_mm: float):
         super().__init__(FailureReason.NO_CALF, detail)

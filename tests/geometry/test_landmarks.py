@@ -106,3 +106,34 @@ def test_tolerances_are_long_on_a_flat_crown_and_short_on_a_steep_rise():
     assert tolerances["B1"] < 2.0
     assert tolerances["C"] > 25.0
     assert tolerances["B1"] <= HIGH_CONFIDENCE_MM
+
+
+def _calf_with_a_flank_bump(top_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """A lower leg's girth every 2 mm from below the ankle to ``top_mm`` (mm): the
+    ankle's waist (225 mm round at 40 mm), a calf maximum of 385 mm at 280 mm, a knee
+    waist of 335 mm at 390 mm, and on the calf's rising flank a bump of a sparse cloud's
+    noise (+6 mm at 170 mm, over +-12 mm)."""
+    z = np.arange(0.0, top_mm, 2.0)
+    calf = np.interp(z, [0, 40, 280, 390, 460], [250, 225, 385, 335, 400])
+    calf = np.convolve(np.pad(calf, 15, mode="edge"), np.ones(31) / 31, mode="valid")  # round the corners
+    bump = 6.0 * np.clip(1.0 - np.abs(z - 170.0) / 12.0, 0.0, None)
+    return z, calf + bump
+
+
+def test_a_bump_on_the_calfs_rising_flank_is_not_the_calf():
+    """The bump is a local maximum with an ankle below it and the flank rising above it:
+    read as a calf whose "knee waist" is the flank 30 mm up, wider than the bump.  A knee
+    waist wider than the calf's maximum by more than MAX_KNEE_OVER_CALF is no knee
+    waist: with the knee in the scan the real calf is found; with the scan stopping on
+    the calf's falling side, the refusal says the knee waist is missing, not a record of
+    a 290 mm "calf" 110 mm below the real one."""
+    from app.geometry.anatomy.landmarks import find_feature_heights
+    from app.geometry.errors import FailureReason, FitFailure
+
+    z, girth = _calf_with_a_flank_bump(460.0)
+    found = find_feature_heights(z, girth)
+    assert abs(found.c_mm - 280.0) < 15.0 and abs(found.d_mm - 390.0) < 15.0
+    z, girth = _calf_with_a_flank_bump(350.0)  # stops 70 mm above C, the leg still narrowing
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z, girth)
+    assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail

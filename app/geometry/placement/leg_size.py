@@ -59,23 +59,49 @@ def likeliest_unit(girth_mm: float, unit: str) -> tuple[str, float] | None:
     return None if best is None else (best[1], best[2])
 
 
-def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detected: bool) -> None:
-    """Refuse (``implausible_size``) a calf whose girth at C fits no human leg in ``unit``."""
-    girth = calf_girth_mm(points_calf, c_mm)
-    if girth is None or MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM:
-        return
+def _size_refusal(girth: float, unit: str, unit_detected: bool, what: str) -> FitFailure | None:
+    """The ``implausible_size`` refusal of a calf ``girth`` mm round as read in ``unit``
+    (``what`` says where it was measured), or None when it is a human calf's or no other
+    unit makes it one: not a question of units (a thigh folded onto the calf of a seated
+    scan, a bandaged leg); the fit's own checks say what is wrong."""
+    if MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM:
+        return None
     other = likeliest_unit(girth, unit)
     if other is None:
-        # no unit makes it a calf: not a question of units (a thigh folded onto the calf
-        # of a seated scan, a bandaged leg); the fit's own checks say what is wrong
-        return
+        return None
     how = "detected from the scan's extent" if unit_detected else "as given"
     read = f"read in {UNIT_NAMES.get(unit, unit)} ({how})"
-    detail = (f"the calf measures {girth:.0f} mm round at its widest, {read}; a human calf is "
+    detail = (f"the calf measures {girth:.0f} mm round {what}, {read}; a human calf is "
               f"{MIN_CALF_GIRTH_MM:.0f}-{MAX_CALF_GIRTH_MM:.0f} mm round (ANSUR II adults, with a margin)")
     detail += (f". The file is most likely in {UNIT_NAMES[other[0]]} (the calf would then be {other[1]:.0f} mm "
                f"round): upload it again with units={other[0]}")
-    raise FitFailure(FailureReason.IMPLAUSIBLE_SIZE, detail)
+    return FitFailure(FailureReason.IMPLAUSIBLE_SIZE, detail)
+
+
+def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detected: bool) -> None:
+    """Refuse (``implausible_size``) a calf whose girth at C fits no human leg in ``unit``."""
+    girth = calf_girth_mm(points_calf, c_mm)
+    refusal = None if girth is None else _size_refusal(girth, unit, unit_detected, "at its widest")
+    if refusal is not None:
+        raise refusal
+
+
+def flank_unit_refusal(failure: FitFailure, unit: str, unit_detected: bool) -> FitFailure | None:
+    """The ``implausible_size`` refusal a placement's ``failure`` hides, or None.
+
+    The landmark rules' windows are millimetres: on a leg read in too large a unit (a leg
+    in inches read as cm, 2.54 times too small) the knee waist lies closer above the calf
+    than D's window starts, the real calf is set aside as a bulge on a rising flank
+    (:class:`app.geometry.errors.BulgeOnFlank`) and the refusal that remains names a
+    missing knee.  When the calf-like bulges so set aside (``failure.flank_bulges_mm``,
+    their girths on the placement's coarse profile) are all outside a human calf's band
+    and another unit puts the largest of them in it, that unit is the refusal."""
+    bulges = failure.flank_bulges_mm
+    if failure.reason not in SHAPE_REASONS or not bulges:
+        return None
+    if any(MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM for girth in bulges):
+        return None
+    return _size_refusal(max(bulges), unit, unit_detected, "at the largest bulge found below the knee")
 
 
 #: the shortest scan that can hold a lower leg from below the ankle to above the knee:
