@@ -160,9 +160,6 @@ def main(legs: int = 8, seed: int = 11) -> dict:
     # E's and G's warnings (app.geometry.anatomy.thigh: a knee without a level crown, a
     # smooth gluteal fold): is a re-scan whose cE / cG is off by more than 3 mm warned about?
     summary = {
-        "e_warning": _warning_check(per_leg, "cE"),
-        "f_warning": _warning_check(per_leg, "cF"),
-        "g_warning": _warning_check(per_leg, "cG"),
         "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
         "points": {p: {**_stats(errors[p]), "range_p95": _stats(ranges[p]).get("p95"),
                        "pairs_p95": _stats(pairs[p]).get("p95"), "not_measured": missing[p]}

@@ -64,9 +64,7 @@ def stats(values) -> str:
     return f"{np.median(a):.2f} / {np.percentile(a, 95):.2f} / {a.max():.2f}"
 
 
-def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 220
-    seed = int(sys.argv[2]) if len(sys.argv) > 2 else 7
+def main(n: int = 220, seed: int = 7) -> None:
     rows = []
     for spec in corpus_specs(n, seed):
         case = build_case(spec)
@@ -155,10 +153,8 @@ def write_markdown(rows, real, n, seed) -> None:
     (RESULTS / f"robustness{_suffix(seed)}.md").write_text("\n".join(lines) + "\n")
 
 
-def rewrite() -> None:
+def rewrite(n: int = 220, seed: int = 7) -> None:
     """The md again from the last run's JSON, "right" judged as :func:`right` judges now."""
-    n = int(sys.argv[2]) if len(sys.argv) > 2 else 220
-    seed = int(sys.argv[3]) if len(sys.argv) > 3 else 7
     data = json.loads((RESULTS / f"robustness{_suffix(seed)}.json").read_text())
     for r in data["cases"]:
         r["right"] = right(r)
@@ -167,7 +163,5 @@ def rewrite() -> None:
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--rewrite"]:
-        rewrite()
-    else:
-        main()
+    again = sys.argv[1:2] == ["--rewrite"]
+    (rewrite if again else main)(*[int(a) for a in sys.argv[1 + again:]])

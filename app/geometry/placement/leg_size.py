@@ -86,24 +86,6 @@ def check_leg_size(points_calf: np.ndarray, c_mm: float, unit: str, unit_detecte
         raise refusal
 
 
-def flank_unit_refusal(failure: FitFailure, unit: str, unit_detected: bool) -> FitFailure | None:
-    """The ``implausible_size`` refusal a placement's ``failure`` hides, or None.
-
-    The landmark rules' windows are millimetres: on a leg read in too large a unit (a leg
-    in inches read as cm, 2.54 times too small) the knee waist lies closer above the calf
-    than D's window starts, the real calf is set aside as a bulge on a rising flank
-    (:class:`app.geometry.errors.BulgeOnFlank`) and the refusal that remains names a
-    missing knee.  When the calf-like bulges so set aside (``failure.flank_bulges_mm``,
-    their girths on the placement's coarse profile) are all outside a human calf's band
-    and another unit puts the largest of them in it, that unit is the refusal."""
-    bulges = failure.flank_bulges_mm
-    if failure.reason not in SHAPE_REASONS or not bulges:
-        return None
-    if any(MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM for girth in bulges):
-        return None
-    return _size_refusal(max(bulges), unit, unit_detected, "at the largest bulge found below the knee")
-
-
 #: the shortest scan that can hold a lower leg from below the ankle to above the knee:
 #: the landmark rules need B at least 100 mm below C and D 30 mm above it, and adult
 #: lower legs measure ~300-480 mm from the ankle to the knee (ANSUR II's lateral
@@ -130,10 +112,17 @@ def with_unit_hint(failure: FitFailure, extent_mm: float, unit: str, unit_detect
     leg to a whole body), that unit is named (of several, the one closest in ratio to a
     700 mm leg scan).  Not when the refusal found a foot of a foot's size
     (:class:`FootFound`, girth within :data:`FOOT_GIRTH_MM`): such a foot in the unit
-    read is itself evidence the unit is right.  Otherwise ``failure`` unchanged.
+    read is itself evidence the unit is right.  Before that, whatever its length: the
+    ``implausible_size`` refusal the calf-like bulges it set aside tell
+    (:func:`_flank_unit_refusal`).  Otherwise ``failure`` unchanged.
     """
+    if failure.reason not in SHAPE_REASONS:
+        return failure
+    by_bulges = _flank_unit_refusal(failure, unit, unit_detected)
+    if by_bulges is not None:
+        return by_bulges
     foot_sized = isinstance(failure, FootFound) and FOOT_GIRTH_MM[0] <= failure.girth_mm <= FOOT_GIRTH_MM[1]
-    if failure.reason not in SHAPE_REASONS or extent_mm >= MIN_LOWER_LEG_SCAN_MM or foot_sized:
+    if extent_mm >= MIN_LOWER_LEG_SCAN_MM or foot_sized:
         return failure
     best = None
     for other, scale in UNIT_SCALE_MM.items():
@@ -150,3 +139,21 @@ def with_unit_hint(failure: FitFailure, extent_mm: float, unit: str, unit_detect
               f"or more); in {UNIT_NAMES[best[1]]} it would be {best[2]:.0f} mm long: if the file is in "
               f"{UNIT_NAMES[best[1]]}, upload it again with units={best[1]}")
     return FitFailure(failure.reason, detail)
+
+
+def _flank_unit_refusal(failure: FitFailure, unit: str, unit_detected: bool) -> FitFailure | None:
+    """The ``implausible_size`` refusal a placement's shape ``failure`` hides, or None.
+
+    The landmark rules' windows are millimetres: on a leg read in too large a unit (a leg
+    in inches read as cm, 2.54 times too small) the knee waist lies closer above the calf
+    than D's window starts, the real calf is set aside as a bulge on a rising flank
+    (:class:`app.geometry.errors.BulgeOnFlank`) and the refusal that remains names a
+    missing knee.  When the calf-like bulges so set aside (``failure.flank_bulges_mm``,
+    their girths on the placement's coarse profile) are all outside a human calf's band
+    and another unit puts the largest of them in it, that unit is the refusal."""
+    bulges = failure.flank_bulges_mm
+    if not bulges:
+        return None
+    if any(MIN_CALF_GIRTH_MM <= girth <= MAX_CALF_GIRTH_MM for girth in bulges):
+        return None
+    return _size_refusal(max(bulges), unit, unit_detected, "at the largest bulge found below the knee")

@@ -28,7 +28,7 @@ from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
-from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, flank_unit_refusal, with_unit_hint
+from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
 from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.scan.reader import MIN_POINTS, Scan
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
@@ -184,9 +184,9 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     """Find the leg of ``scan`` (see the module docstring); raises FitFailure.
 
     A refusal about the leg's shape on a scan too short to be a leg names the unit that
-    would make it one (:func:`app.geometry.placement.leg_size.with_unit_hint`); one whose
-    calf-like bulges were all set aside, sized for no human calf in the unit read, the
-    unit they would be a calf in (:func:`~app.geometry.placement.leg_size.flank_unit_refusal`)."""
+    would make it one, and one whose calf-like bulges were all set aside, sized for no
+    human calf in the unit read, the unit they would be a calf in
+    (:func:`app.geometry.placement.leg_size.with_unit_hint`)."""
     try:
         return _place_leg(scan, side)
     except FitFailure as failure:
@@ -202,10 +202,6 @@ def place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                     f"cloud needs about {MIN_CLOUD_POINTS_PER_MM:g} point per mm of each leg's height "
                     f"({2 * MIN_CLOUD_POINTS_PER_MM:g} per mm of a body's or two legs' length) to close its sections: "
                     "export the scan denser, or as a mesh") from failure
-        # a leg read in too large a unit: its calf set aside as a bulge on a flank
-        unit_refusal = flank_unit_refusal(failure, scan.units, scan.units_detected)
-        if unit_refusal is not None:
-            raise unit_refusal from failure
         hinted = with_unit_hint(failure, extent, scan.units, scan.units_detected)
         if hinted is failure:
             raise

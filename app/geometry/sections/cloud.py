@@ -233,7 +233,8 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
     count = np.maximum(hi - lo, 0)
     plane = np.repeat(np.arange(k), count)
     start = np.cumsum(count) - count
-    rank = lo[plane] + (np.arange(plane.size) - start[plane])
+    within = np.arange(plane.size) - start[plane]  # each point's place in its slab
+    rank = lo[plane] + within
     xy = points[order[rank], :2]
     empty = PolarSections(heights, np.full((k, 2), np.nan), np.full((k, n_angles), np.nan), angles, np.zeros(k))
     if plane.size == 0:
@@ -241,7 +242,7 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
     # every CENTRE_STRIDE-th point of each slab, counted from the slab's own first point:
     # a section's centre (and so its girth) then depends on its own slab only, not on
     # which other heights are read in the same call
-    sub = (np.arange(plane.size) - start[plane]) % CENTRE_STRIDE == 0
+    sub = within % CENTRE_STRIDE == 0
     centre = np.stack([group_median(plane[sub], xy[sub, i], k)[0] for i in range(2)], axis=1)
     design_out = _fourier_design(angles, harmonics)
     radii = np.full((k, n_angles), np.nan)
