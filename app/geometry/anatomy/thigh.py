@@ -66,6 +66,18 @@ KNEE_LEVEL_SLOPE_JUDGED = (0.5, 1.5)
 GIRTH_TOLERANCE_MM = 3.0
 #: the thigh's back, where the fold's chord starts: this far above E, mm
 THIGH_BACK_ABOVE_E_MM = 100.0
+#: a knee bent but read straight (the placement cuts a thigh free only where the bend
+#: splits the leg's centre line into two long runs): the line through the centroids of
+#: the sections from THIGH_AXIS_FROM_D_MM above D (above the knee joint) to the top of
+#: E's window leaves the shank's axis (the frame's z) by more than MAX_THIGH_TILT_DEG.
+#: Measured (benchmarks/results/robustness.md's corpus, the real legs in tests/data):
+#: the three real standing legs 3.0-6.1 degrees (the femur's valgus, 5-9 degrees in
+#: anatomy texts, tilts the thigh); the corpus's seated legs read straight 30.6-51
+#: degrees, their "cE" 464-760 mm where a knee is 350-450 round.  15 degrees leaves
+#: room for a standing knee held slightly flexed, where a tape across the shank's axis
+#: reads a thigh 1/cos 15 = 3.5% long
+THIGH_AXIS_FROM_D_MM = 80.0
+MAX_THIGH_TILT_DEG = 15.0
 
 
 @dataclass(frozen=True)
@@ -242,6 +254,17 @@ def _middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: n
     return KneeMiddle(knee, e_mm, moved_mm if e_uncertain else 0.0, warnings)
 
 
+def _thigh_tilt_deg(heights: np.ndarray, sections: PolarSections, d_mm: float) -> float | None:
+    """Angle (degrees) between the calf frame's z and the least-squares line through the
+    centroids of ``sections`` at ``heights`` (k,) mm from THIGH_AXIS_FROM_D_MM above D
+    up; None with fewer than 4 closed sections there."""
+    rows = (heights >= d_mm + THIGH_AXIS_FROM_D_MM) & np.isfinite(sections.tape_perimeters())
+    if rows.sum() < 4:
+        return None
+    drift = np.polyfit(heights[rows], sections.centroids_mm[rows], 1)[0]  # (2,) mm of x, y per mm of z
+    return float(np.degrees(np.arctan(np.hypot(drift[0], drift[1]))))
+
+
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
     """E, F, G of the module docstring (mm), or why not."""
     if knee_bent:
@@ -258,6 +281,11 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     knee_sections = tape_sections(points, faces, heights[knee_span])
     girth = np.full(len(heights), np.nan)
     girth[knee_span] = knee_sections.tape_perimeters()
+    tilt = _thigh_tilt_deg(heights[knee_span], knee_sections, d_mm)
+    if tilt is not None and tilt > MAX_THIGH_TILT_DEG:
+        return _none(f"the knee is bent: above it the leg leaves the shank's axis by {tilt:.0f} degrees (a standing "
+                     f"leg's thigh by less than {MAX_THIGH_TILT_DEG:.0f}), so a tape across the shank's axis would cut "
+                     "the knee and thigh obliquely (a thigh-high stocking is measured standing)")
     slope = _girth_slope(girth)
     window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
     if not window.any():

@@ -155,3 +155,19 @@ def test_real_legs_as_meshes_and_as_their_vertices():
     scan, result = fitted("vh_female_skin.glb", "right")
     assert result.thigh.knee.girth_mm is not None and result.thigh.top_of_thigh.girth_mm is None
     assert "gluteal fold" in result.thigh.top_of_thigh.reason
+
+
+@pytest.mark.parametrize("tilt_deg,bent", [(7.0, False), (30.0, True)])
+def test_a_thigh_leaving_the_shanks_axis_is_a_bent_knee_even_when_not_cut_free(tilt_deg, bent):
+    """A leg read straight whose sections above the knee joint (60 mm above D) drift off
+    the shank's axis: at a femur's valgus (7 degrees) the knee and thigh are measured; at
+    30 degrees the knee is bent (a seated scan the placement did not cut: the corpus's
+    such legs read "cE" 464-760 mm) and nothing above D is measured, saying why."""
+    drift = np.tan(np.radians(tilt_deg))
+    leg = _leg(centre_y=lambda z: _centre_y(z) - drift * np.clip(z - 60.0, 0.0, None))
+    found = thigh_measures(leg, None, D, knee_bent=False)
+    if bent:
+        for point in (found.knee, found.mid_thigh, found.top_of_thigh):
+            assert point.girth_mm is None and "knee is bent" in point.reason and "30 degrees" in point.reason
+    else:
+        assert found.knee.girth_mm is not None and found.knee.reason is None
