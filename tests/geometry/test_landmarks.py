@@ -137,29 +137,3 @@ def test_a_bump_on_the_calfs_rising_flank_is_not_the_calf():
     with pytest.raises(FitFailure) as caught:
         find_feature_heights(z, girth)
     assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
-
-
-def _calf_with_a_thigh_folded_on(merge_mm: float) -> tuple[np.ndarray, np.ndarray]:
-    """The lower leg of :func:`_calf_with_a_flank_bump` (no bump), scanned seated: from
-    ``merge_mm`` up the planes across the shank also cut the thigh folded onto it, and
-    the girth jumps by 250 mm within 4 mm (a section of shank and thigh together)."""
-    z, girth = _calf_with_a_flank_bump(520.0)
-    girth = girth - 6.0 * np.clip(1.0 - np.abs(z - 170.0) / 12.0, 0.0, None)
-    return z, girth + 250.0 * np.clip((z - merge_mm) / 4.0, 0.0, 1.0)
-
-
-def test_a_knee_waist_hidden_by_the_thigh_is_refused_and_one_below_it_is_read():
-    """A bent knee's thigh that reaches the planes while the girth still narrows towards
-    the knee waist hides it: the minimum just under the jump is where the thigh arrives,
-    not D (a seated scan of the corpus was read so, D 26 mm small, with no warning).
-    Arriving above a knee waist it leaves D where the standing leg has it."""
-    from app.geometry.anatomy.landmarks import find_feature_heights
-    from app.geometry.errors import FailureReason, FitFailure
-
-    standing = find_feature_heights(*_calf_with_a_flank_bump(520.0))
-    z, girth = _calf_with_a_thigh_folded_on(440.0)
-    assert abs(find_feature_heights(z, girth).d_mm - standing.d_mm) < 2.0
-    z, girth = _calf_with_a_thigh_folded_on(350.0)
-    with pytest.raises(FitFailure) as caught:
-        find_feature_heights(z, girth)
-    assert caught.value.reason is FailureReason.NO_KNEE and "hidden" in caught.value.detail, caught.value.detail

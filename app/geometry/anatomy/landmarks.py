@@ -51,13 +51,6 @@ MIN_KNEE_RATIO = 1.05
 #: record read D 167 mm wide).  A candidate whose D is wider than this times C is not a
 #: calf's maximum with its knee waist
 MAX_KNEE_OVER_CALF = 1.05
-#: another body part entering the planes: a leg's girth rises at most ~1%/mm anywhere
-#: above the ankle (about 0.5%/mm at the knee), so a rise of MERGE_RISE within
-#: MERGE_RUN_MM means the plane has reached something else - a bent knee's thigh,
-#: folded onto the shank (the corpus truth, benchmarks/corpus/truth.py, ends the shank's
-#: sections by the same rule, and app.geometry.placement.leg_axis ends a cut leg's)
-MERGE_RISE = 0.10
-MERGE_RUN_MM = 5.0
 #: a plateau shoulder: the girth slope falls below this fraction of the steepest slope
 #: of the calf flank in the FLANK_MM below it
 SHOULDER_FRACTION = 0.35
@@ -306,101 +299,45 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
             f"the minimum below the bulge at {g[ic]:.0f} mm girth ({g[ib]:.0f} mm) is not the ankle: "
             f"the leg below it is narrower ({g[lower].min():.0f} mm)"
         )
-    merge = _first_merge(profile, float(heights[ib]), zc)
-    if merge is not None:
-        # the girth rose to this "calf" by a jump no leg's flank makes: another body part
-        # (a bent knee's thigh folded onto the shank) entered the planes below it
-        return _no_calf(
-            f"the bulge at {g[ic]:.0f} mm girth is not a calf: {zc - heights[merge]:.0f} mm below it the girth "
-            f"jumps by more than {MERGE_RISE:.0%} within {MERGE_RUN_MM:g} mm, where another body part (a bent "
-            "knee's thigh) enters the planes across the leg"
-        )
     if g[ic] < MIN_CALF_RATIO * g[ib]:
         return _no_calf(
             f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
             f"{MIN_CALF_RATIO:.2f} x the ankle girth ({g[ib]:.0f} mm)"
         )
     lo, hi = zc + KNEE_ABOVE_CALF_MM[0], zc + KNEE_ABOVE_CALF_MM[1]
-    # D is looked for on the shank's own sections: below a thigh folded onto it, whose
-    # arrival in the planes ends them as the scan's top edge would (_shank_below_merge)
-    shank = _shank_below_merge(profile, zc)
-    no_knee = _no_knee(top - zc) if shank is profile else _knee_hidden(shank.top - zc)
-    kz, kg, kraw, kmin, ktop = shank.heights, shank.smooth, shank.raw, shank.local_min, shank.top
-    above = (kz >= lo) & (kz <= hi) & shank.measured
+    above = (heights >= lo) & (heights <= hi) & ok
     if not above.any():
-        return no_knee
-    minima = np.flatnonzero(above & kmin)
+        return _no_knee(top - zc)
+    minima = np.flatnonzero(above & local_min)
     if minima.size:
-        id_ = minima[np.argmin(kg[minima])]
+        id_ = minima[np.argmin(g[minima])]
     else:  # no distinct minimum: the girth levels off and rises; D is the window's bottom
         id_ = np.flatnonzero(above)[0]
-    over = (kz > kz[id_]) & (kz <= kz[id_] + 150.0)
+    over = (heights > heights[id_]) & (heights <= heights[id_] + 150.0)
     d_edge = False
-    if ktop - kz[id_] < INTERIOR_MARGIN_MM or not over.any() or kg[over].max() < kg[id_] + 0.5:
-        if ktop - kz[above][-1] > 2 * spacing or not _minimum_reached_at_edge(kz, kraw, ktop, -1):
-            return no_knee
-        id_, d_edge = np.flatnonzero(above)[np.argmin(kg[above])], True
-    if kg[id_] > MAX_KNEE_OVER_CALF * g[ic]:
+    if top - heights[id_] < INTERIOR_MARGIN_MM or not over.any() or g[over].max() < g[id_] + 0.5:
+        if top - heights[above][-1] > 2 * spacing or not _minimum_reached_at_edge(heights, raw, top, -1):
+            return _no_knee(top - zc)
+        id_, d_edge = np.flatnonzero(above)[np.argmin(g[above])], True
+    if g[id_] > MAX_KNEE_OVER_CALF * g[ic]:
         flank = _no_calf(
-            f"the bulge at {g[ic]:.0f} mm girth is not the calf's maximum: {kz[id_] - zc:.0f} mm above it the "
-            f"leg is {kg[id_]:.0f} mm round and still widening, with no knee waist between"
+            f"the bulge at {g[ic]:.0f} mm girth is not the calf's maximum: {heights[id_] - zc:.0f} mm above it the "
+            f"leg is {g[id_]:.0f} mm round and still widening, with no knee waist between"
         )
         return BulgeOnFlank(flank.detail, float(g[ic]))
-    if kg[id_] < MIN_KNEE_RATIO * g[ib]:
+    if g[id_] < MIN_KNEE_RATIO * g[ib]:
         return FitFailure(
             FailureReason.NO_KNEE,
             "the minimum above the calf is not thicker than the ankle: no knee in the scanned range",
         )
     z_b = float(heights[ib]) if b_edge else waist_vertex(heights, raw, ib, max(bottom, zc - ANKLE_BELOW_CALF_MM[1]), zc)
-    z_d = float(kz[id_]) if d_edge else waist_vertex(kz, kraw, id_, lo, min(ktop, hi))
+    z_d = float(heights[id_]) if d_edge else waist_vertex(heights, raw, id_, lo, min(top, hi))
     return FeatureHeights(
         z_b, float(zc), z_d,
-        float(np.interp(z_b, heights, g)), float(g[ic]), float(np.interp(z_d, kz, kg)),
-        bool(kz[id_] - lo < 2 * spacing) and not d_edge,
+        float(np.interp(z_b, heights, g)), float(g[ic]), float(np.interp(z_d, heights, g)),
+        bool(heights[id_] - lo < 2 * spacing) and not d_edge,
         b_edge, d_edge,
     )
-
-
-def _first_merge(profile: GirthProfile, low_mm: float, high_mm: float) -> int | None:
-    """Index of the last section before the first rise of the raw girth by MERGE_RISE
-    within MERGE_RUN_MM that starts in (low_mm, high_mm] (another body part entering the
-    planes), or None."""
-    heights, raw = profile.heights, profile.raw
-    run = max(int(round(MERGE_RUN_MM / profile.spacing)), 1)
-    if len(raw) <= run:
-        return None
-    with np.errstate(invalid="ignore"):
-        rise = raw[run:] > (1.0 + MERGE_RISE) * raw[:-run]
-    jumps = np.flatnonzero(rise & (heights[:-run] > low_mm) & (heights[:-run] <= high_mm))
-    return int(jumps[0]) if jumps.size else None
-
-
-def _shank_below_merge(profile: GirthProfile, zc: float) -> GirthProfile:
-    """``profile`` up to the last section below where another body part enters the
-    planes above the calf maximum at height ``zc`` (the first rise of MERGE_RISE within
-    MERGE_RUN_MM, up to 150 mm above D's window, as far as D's rise is looked at), its
-    girths smoothed again on that part alone (the smoothing would carry the jump into the
-    shank's sections); ``profile`` itself when there is none.
-
-    A knee bent far enough folds the thigh's back onto the calf: the planes across the
-    shank meet it, the section's girth jumps, and what lies above is not the shank's.
-    The shank's sections end there as they would at the scan's edge, so a knee waist
-    still narrowing into the thigh's arrival is not measurable - the girth it rises to
-    is the thigh's - and is refused (:func:`_knee_hidden`), not read at the merge."""
-    heights, raw = profile.heights, profile.raw
-    last = _first_merge(profile, zc, zc + KNEE_ABOVE_CALF_MM[1] + 150.0)
-    if last is None:
-        return profile
-    end = last + 1
-    part_raw = raw[:end]
-    measured = np.isfinite(part_raw)
-    if measured.sum() < 3:
-        return profile
-    smooth = smooth_profile(heights[:end], part_raw)
-    local_min = np.zeros(end, dtype=bool)
-    local_min[find_peaks(-smooth)[0]] = True
-    return GirthProfile(heights[:end], part_raw, smooth, measured, local_min, profile.bottom,
-                        float(heights[:end][measured][-1]), profile.spacing)
 
 
 def waist_vertex(heights: np.ndarray, raw: np.ndarray, index: int, low_mm: float, high_mm: float) -> float:
@@ -617,17 +554,6 @@ def _no_knee(span_mm: float) -> FitFailure:
         "the knee waist (D, the narrowest part of the leg below the knee) is not in the scan: the "
         f"scan reaches {span_mm:.0f} mm above the calf maximum, where the leg is still narrowing. "
         "Re-scan up to at least 3 cm above the knee joint (over the kneecap).",
-    )
-
-
-def _knee_hidden(span_mm: float) -> FitFailure:
-    return FitFailure(
-        FailureReason.NO_KNEE,
-        f"the knee waist (D, the narrowest part of the leg below the knee) is hidden: {span_mm:.0f} mm above the "
-        f"calf maximum the thigh reaches into the planes across the shank (the girth jumps by more than "
-        f"{MERGE_RISE:.0%} within {MERGE_RUN_MM:g} mm) while the leg is still narrowing towards the knee waist - "
-        "the knee is bent so far that the thigh's back lies on the calf. Re-scan the leg standing, or with the "
-        "knee bent less.",
     )
 
 

@@ -23,14 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import (
-    MAX_CALF_ELONGATION,
-    MERGE_RISE,
-    MERGE_RUN_MM,
-    FeatureHeights,
-    failure_stage,
-    find_feature_heights,
-)
+from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, failure_stage, find_feature_heights
 from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.knee_bend import keep_index, shank_runs
@@ -60,6 +53,11 @@ REDETECT_DEG = 2.0
 MIN_END_COVERAGE = 0.9
 #: an oblique crop (up to ~15 degrees across a 70 mm leg) spans this much of the axis, mm
 END_CUT_MM = 25.0
+#: a leg's girth rises at most ~1%/mm anywhere above the ankle (about 0.5%/mm at the
+#: knee): a rise of 10% within 5 mm means the plane has reached another body part (a
+#: bent knee's thigh); the corpus truth ends the shank's sections by the same rule
+MERGE_RISE = 0.10
+MERGE_RUN_MM = 5.0
 #: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
 COARSE_ANGLES = 36
 #: the shank's long axis is the line through the section centroids from B to this share
