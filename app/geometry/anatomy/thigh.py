@@ -14,10 +14,10 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
 - **E, the middle of the knee.**  Going up from the knee waist D the girth rises over the
   knee's bulge (the femoral condyles and the patella), stays nearly level across it, and
   rises again along the thigh.  E is the middle of that level stretch: of the run of
-  heights round the smallest girth slope (the slope over +-SLOPE_HALF_MM, searched
-  between D + 20 mm and D + 150 mm) whose slope stays within KNEE_LEVEL_SLOPE of it, its
-  ends read between the STEP_MM samples where the slope crosses that bound
-  (:func:`run_between_crossings`).
+  heights round the smallest girth slope (the slope of a least-squares spline through
+  the knee's sections, :func:`_girth_slope`, searched between D + 20 mm and D + 150 mm)
+  whose slope stays within KNEE_LEVEL_SLOPE of it, its ends read between the STEP_MM
+  samples where the slope crosses that bound (:func:`run_between_crossings`).
   ANSUR II puts the mid-patella 17 +- 9 mm above the tibial plateau (6,068 subjects); on
   the Visible Human male, whose D is 456 mm above the floor, E lands 50 mm above D, where
   the ANSUR proportions of a 1.8 m man put the mid-patella.
