@@ -137,3 +137,24 @@ def test_a_bump_on_the_calfs_rising_flank_is_not_the_calf():
     with pytest.raises(FitFailure) as caught:
         find_feature_heights(z, girth)
     assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
+
+
+def test_a_pointed_foots_narrow_toes_are_not_the_ankle():
+    """A foot pointed in line with the shank (plantar flexion 44 degrees, as a corpus scan
+    that was refused): going down from the calf the girth narrows to the ankle (225 mm),
+    swells over the heel and instep (295 mm) and narrows again along the toes (a dip to
+    208 mm, then less) - sections as elongated as a foot's (1.4-2.0, a calf's 1.0-1.1).  The
+    toes' minimum is not B: B is the ankle's, and the calf and knee waist above it are
+    found; read without the elongation the toes' minimum is taken for B and refused."""
+    from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, find_feature_heights
+    from app.geometry.errors import FitFailure
+
+    z = np.arange(0.0, 800.0, 2.0)
+    girth = np.interp(z, [0, 40, 60, 80, 110, 130, 170, 300, 400, 470, 560, 700, 800],
+                      [150, 212, 208, 215, 295, 293, 225, 232, 379, 345, 340, 420, 500])
+    elongation = np.interp(z, [0, 60, 90, 110, 140, 170, 800], [2.0, 1.5, 1.4, 1.5, 1.42, 1.2, 1.03])
+    assert elongation[np.argmin(np.abs(z - 60))] > MAX_CALF_ELONGATION
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert 150.0 < found.b_mm < 300.0 and abs(found.c_mm - 400.0) < 20.0 and 460.0 < found.d_mm < 600.0
+    with pytest.raises(FitFailure):
+        find_feature_heights(z, girth)

@@ -199,7 +199,8 @@ class GirthProfile:
     ascending, evenly ``spacing`` mm apart; ``raw`` (k,) girths (NaN where missing) and
     ``smooth`` (k,) the smoothed ones, mm; ``measured`` (k,) bool; ``local_min`` (k,) bool
     the local minima of ``smooth``; ``bottom`` and ``top`` the first and last measured
-    heights, mm."""
+    heights, mm; ``footlike`` (k,) bool: the sections more elongated than a calf's
+    (MAX_CALF_ELONGATION: the foot's), all False where the elongation is not known."""
 
     heights: np.ndarray
     raw: np.ndarray
@@ -209,6 +210,7 @@ class GirthProfile:
     bottom: float
     top: float
     spacing: float
+    footlike: np.ndarray
 
 
 def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PROFILE_SMOOTHING_MM) -> np.ndarray:
@@ -276,7 +278,9 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     if not below.any():
         return _no_ankle(zc - bottom)
     ib, b_edge = None, False
-    minima = np.flatnonzero(below & local_min)
+    # the ankle is a leg's section: a minimum among the foot's elongated sections (a
+    # pointed foot's toes, in line with the shank, narrow below the heel) is not B
+    minima = np.flatnonzero(below & local_min & ~profile.footlike)
     if minima.size:
         ib = minima[np.argmin(g[minima])]
         under = (heights < heights[ib]) & (heights >= heights[ib] - 150.0)
@@ -286,11 +290,12 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
         if heights[below][0] - bottom > 2 * spacing or not _minimum_reached_at_edge(heights, raw, bottom, +1):
             return _no_ankle(zc - bottom)
         ib, b_edge = np.flatnonzero(below)[np.argmin(g[below])], True
-    # walk down from B until the girth passes the foot's (a knee waist has only the calf
-    # below it, a real ankle the heel and instep)
+    # walk down from B until the girth passes the foot's or the sections turn as
+    # elongated as a foot's (a knee waist has only the calf below it, a real ankle the
+    # heel and instep)
     # (not the lowest INTERIOR_MARGIN_MM of the scan: its edge sections are often partial)
     down = np.flatnonzero(ok & (heights < heights[ib] - INTERIOR_MARGIN_MM) & (heights >= bottom + INTERIOR_MARGIN_MM))[::-1]
-    foot = np.flatnonzero(g[down] >= FOOT_RATIO * g[ib])
+    foot = np.flatnonzero((g[down] >= FOOT_RATIO * g[ib]) | profile.footlike[down])
     lower = down[: foot[0]] if foot.size else down
     if lower.size and g[lower].min() < (1.0 - NARROWER_BELOW) * g[ib]:
         # the ankle is the narrowest part of the leg above the foot: with a narrower leg
@@ -426,7 +431,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             shoulders = shoulders[heights[shoulders] >= heights[near_shoulders].min()] if near_shoulders.size else near_shoulders
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
-    profile = GirthProfile(heights, girth, g, ok, local_min, float(bottom), float(top), spacing)
+    footlike = np.zeros(len(g), dtype=bool) if elongation is None else np.nan_to_num(elongation) > MAX_CALF_ELONGATION
+    profile = GirthProfile(heights, girth, g, ok, local_min, float(bottom), float(top), spacing, footlike)
     if peaks.size == 0 and shoulders.size == 0:
         # no bulge inside the scan: when the girth is largest at one end, the scan stops
         # inside the calf (the up end: the knee waist is missing; the down end: the ankle)
