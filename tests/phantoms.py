@@ -63,7 +63,7 @@ def revolution_truth(sigma_mm: float = 0.0) -> dict:
     """Landmark heights (z) and girths of :func:`calf_radius`, found numerically on a
     0.01 mm grid (girth = 2 pi r): B the ankle minimum, C the calf maximum, D the
     minimum above C, B1 the first height above B where the girth has risen half of the
-    way to C's (app.geometry.anatomy.landmarks.b1_height)."""
+    way to C's (app.geometry.anatomy.feature_layers.b1_height)."""
     z = np.arange(0.0, 450.0, 0.01)
     girth = 2.0 * np.pi * calf_radius(z)
     interior = (z > 40) & (z < 440)

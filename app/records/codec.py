@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.anatomy import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
 from app.geometry.fit.pipeline import FitResult
 from app.geometry.spline.bounds import check_leg_tube

@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES as LANDMARKS  # noqa: E402
+from app.geometry.anatomy import LANDMARK_NAMES as LANDMARKS  # noqa: E402
 from app.geometry.garment.pressure import PA_PER_MMHG, surface_rings  # noqa: E402
 from app.geometry.garment.standards import GRADIENT  # noqa: E402
 from app.records.codec import CalfRecord  # noqa: E402

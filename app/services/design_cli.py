@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES as LANDMARKS
+from app.geometry.anatomy import LANDMARK_NAMES as LANDMARKS
 from app.records.codec import CalfRecord
 from app.services.designs import band_text, compute_design, foot_text, inputs_from_request
 

@@ -21,7 +21,7 @@ import numpy as np
 from app.db.models import Job
 from app.db.repositories import JOB_FAILED, JOB_SUCCEEDED, JobRepository, ScanRepository
 from app.errors import Unprocessable, from_fit_failure
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.anatomy import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
 from app.geometry.measures.population import as_right_leg, distinct_net, girth_percentiles, population_of
 from app.geometry.measures.surface_girths import girths

@@ -14,7 +14,7 @@ from app.cad import CAD_MEDIA_TYPES, export_surface
 from app.db.models import Record
 from app.db.repositories import RecordRepository
 from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.anatomy import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
 from app.geometry.garment.measuring_points import chart_of_record
 from app.geometry.measures.surface_girths import girths, surface_height_range

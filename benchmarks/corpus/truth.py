@@ -10,7 +10,7 @@ shank, B the smallest between the ankle joint and C, D the smallest between C an
 60 mm above the knee joint, B1 the first height above B where the girth has risen half
 of the way from B's to C's (the steepest point of a sigmoid rise, paper section 2.2;
 until 2026-12 it was the largest slope itself, which moves with the noise of a
-flat-topped derivative: app.geometry.anatomy.landmarks.b1_height says why).
+flat-topped derivative: app.geometry.anatomy.feature_layers.b1_height says why).
 On a flat calf, C is then moved to the middle of its crown: the heights around the
 maximum whose girth a tape cannot tell from it (within 0.5%, the same definition as
 the service's, since the paper's "maximum" is not a height on a plateau).

@@ -4,7 +4,7 @@ points of the seven layers (section 2.3) and the side of a single leg from its f
 
 from __future__ import annotations
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES, Landmark, Landmarks
+from app.geometry.anatomy.feature_layers import LANDMARK_NAMES, Landmark, Landmarks
 from app.geometry.anatomy.side import infer_side
 
 __all__ = ["LANDMARK_NAMES", "Landmark", "Landmarks", "infer_side"]

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import Landmarks
+from app.geometry.anatomy.feature_layers import Landmarks
 from app.geometry.anatomy.thigh import ThighMeasures
 from app.geometry.errors import FitFailure
 from app.geometry.sections import slice_polar

@@ -18,9 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
-from app.geometry.anatomy.foot import FootMeasures, foot_measures
-from app.geometry.anatomy.landmarks import (
+from app.geometry.anatomy.feature_layers import (
     LANDMARK_NAMES,
     Landmark,
     Landmarks,
@@ -28,6 +26,8 @@ from app.geometry.anatomy.landmarks import (
     height_tolerances,
     layer_heights,
 )
+from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
+from app.geometry.anatomy.foot import FootMeasures, foot_measures
 from app.geometry.anatomy.thigh import ThighMeasures, thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.anatomy.feature_layers import LANDMARK_NAMES
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.knitting import KnittingSpec, knit_rows

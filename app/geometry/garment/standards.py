@@ -1,7 +1,7 @@
 """Compression classes and the pressure gradient down the leg (RAL-GZ 387, BS 6612,
 NF G30-102), with the standing of each row; design targets from them.
 
-Pressures in mmHg; the landmarks B, B1, C, D of :mod:`app.geometry.anatomy.landmarks`.
+Pressures in mmHg; the landmarks B, B1, C, D of :mod:`app.geometry.anatomy.feature_layers`.
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import TypedDict
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import LANDMARK_NAMES
+from app.geometry.anatomy.feature_layers import LANDMARK_NAMES
 from app.geometry.errors import FailureReason, FitFailure
 
 
