@@ -151,7 +151,7 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
     )
 
 
-#: half-width of the waist parabola, mm (app.geometry.anatomy.landmarks.WAIST_FIT_MM says why)
+#: half-width of the waist parabola, mm (app.geometry.anatomy.waists.WAIST_FIT_MM says why)
 WAIST_FIT_MM = 20.0
 
 

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import CROWN_FRACTION, smooth_profile
+from app.geometry.anatomy.landmarks import smooth_profile
 from app.geometry.anatomy.level_runs import run_around
+from app.geometry.anatomy.waists import CROWN_FRACTION
 
 LANDMARK_NAMES = ("B", "B1", "C", "D")
 

@@ -1,0 +1,54 @@
+"""Finding B, C and D on a circumference profile (app.geometry.anatomy.landmarks):
+synthetic girth profiles (mm) of a lower leg with the shapes scans gave trouble with."""
+
+import numpy as np
+import pytest
+
+from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, find_feature_heights
+from app.geometry.errors import FailureReason, FitFailure
+
+
+def _calf_with_a_flank_bump(top_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """A lower leg's girth every 2 mm from below the ankle to ``top_mm`` (mm): the
+    ankle's waist (225 mm round at 40 mm), a calf maximum of 385 mm at 280 mm, a knee
+    waist of 335 mm at 390 mm, and on the calf's rising flank a bump of a sparse cloud's
+    noise (+6 mm at 170 mm, over +-12 mm)."""
+    z = np.arange(0.0, top_mm, 2.0)
+    calf = np.interp(z, [0, 40, 280, 390, 460], [250, 225, 385, 335, 400])
+    calf = np.convolve(np.pad(calf, 15, mode="edge"), np.ones(31) / 31, mode="valid")  # round the corners
+    bump = 6.0 * np.clip(1.0 - np.abs(z - 170.0) / 12.0, 0.0, None)
+    return z, calf + bump
+
+
+def test_a_bump_on_the_calfs_rising_flank_is_not_the_calf():
+    """The bump is a local maximum with an ankle below it and the flank rising above it:
+    read as a calf whose "knee waist" is the flank 30 mm up, wider than the bump.  A knee
+    waist wider than the calf's maximum by more than MAX_KNEE_OVER_CALF is no knee
+    waist: with the knee in the scan the real calf is found; with the scan stopping on
+    the calf's falling side, the refusal says the knee waist is missing, not a record of
+    a 290 mm "calf" 110 mm below the real one."""
+    z, girth = _calf_with_a_flank_bump(460.0)
+    found = find_feature_heights(z, girth)
+    assert abs(found.c_mm - 280.0) < 15.0 and abs(found.d_mm - 390.0) < 15.0
+    z, girth = _calf_with_a_flank_bump(350.0)  # stops 70 mm above C, the leg still narrowing
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z, girth)
+    assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
+
+
+def test_a_pointed_foots_narrow_toes_are_not_the_ankle():
+    """A foot pointed in line with the shank (plantar flexion 44 degrees, as a corpus scan
+    that was refused): going down from the calf the girth narrows to the ankle (225 mm),
+    swells over the heel and instep (295 mm) and narrows again along the toes (a dip to
+    208 mm, then less) - sections as elongated as a foot's (1.4-2.0, a calf's 1.0-1.1).  The
+    toes' minimum is not B: B is the ankle's, and the calf and knee waist above it are
+    found; read without the elongation the toes' minimum is taken for B and refused."""
+    z = np.arange(0.0, 800.0, 2.0)
+    girth = np.interp(z, [0, 40, 60, 80, 110, 130, 170, 300, 400, 470, 560, 700, 800],
+                      [150, 212, 208, 215, 295, 293, 225, 232, 379, 345, 340, 420, 500])
+    elongation = np.interp(z, [0, 60, 90, 110, 140, 170, 800], [2.0, 1.5, 1.4, 1.5, 1.42, 1.2, 1.03])
+    assert elongation[np.argmin(np.abs(z - 60))] > MAX_CALF_ELONGATION
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert 150.0 < found.b_mm < 300.0 and abs(found.c_mm - 400.0) < 20.0 and 460.0 < found.d_mm < 600.0
+    with pytest.raises(FitFailure):
+        find_feature_heights(z, girth)
