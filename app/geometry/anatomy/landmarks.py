@@ -112,8 +112,7 @@ class GirthProfile:
     ascending, evenly ``spacing`` mm apart; ``raw`` (k,) girths (NaN where missing) and
     ``smooth`` (k,) the smoothed ones, mm; ``measured`` (k,) bool; ``local_min`` (k,) bool
     the local minima of ``smooth``; ``bottom`` and ``top`` the first and last measured
-    heights, mm; ``footlike`` (k,) bool: the sections more elongated than a calf's
-    (MAX_CALF_ELONGATION: the foot's), all False where the elongation is not known."""
+    heights, mm; ``elongation`` (k,) the sections' elongations (0 where not known)."""
 
     heights: np.ndarray
     raw: np.ndarray
@@ -123,7 +122,13 @@ class GirthProfile:
     bottom: float
     top: float
     spacing: float
-    footlike: np.ndarray
+    elongation: np.ndarray
+
+    @property
+    def footlike(self) -> np.ndarray:
+        """(k,) bool: the sections more elongated than a calf's (MAX_CALF_ELONGATION: the
+        foot's)."""
+        return self.elongation > MAX_CALF_ELONGATION
 
 
 def smooth_profile(heights: np.ndarray, girth: np.ndarray, sigma_mm: float = PROFILE_SMOOTHING_MM) -> np.ndarray:
@@ -296,8 +301,9 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             shoulders = shoulders[heights[shoulders] >= heights[near_shoulders].min()] if near_shoulders.size else near_shoulders
     local_min = np.zeros(len(g), dtype=bool)
     local_min[find_peaks(-g)[0]] = True
-    footlike = np.zeros(len(g), dtype=bool) if elongation is None else np.nan_to_num(elongation) > MAX_CALF_ELONGATION
-    profile = GirthProfile(heights, girth, g, ok, local_min, float(bottom), float(top), spacing, footlike)
+    stretch = np.zeros(len(g)) if elongation is None else np.nan_to_num(elongation)
+    profile = GirthProfile(heights, girth, g, ok, local_min, float(bottom), float(top), spacing, stretch)
+    footlike = profile.footlike
     if peaks.size == 0 and shoulders.size == 0:
         # no bulge inside the scan: when the girth is largest at one end, the scan stops
         # inside the calf (the up end: the knee waist is missing; the down end: the ankle)
@@ -313,8 +319,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
             outcome: FeatureHeights | FitFailure
-            if elongation is not None and elongation[ic] > MAX_CALF_ELONGATION:
-                outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {elongation[ic]:.2f} times as "
+            if footlike[ic]:
+                outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {stretch[ic]:.2f} times as "
                                              "long as it is wide: a foot, not a calf").detail, float(g[ic]))
             else:
                 outcome = _check_candidate(profile, int(ic))
@@ -350,10 +356,9 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     # the top edge (the knee waist is missing); below it, at the bottom edge (the ankle)
     # (only when no candidate found even an ankle: otherwise that candidate says more)
     finite = np.flatnonzero(ok)
-    if elongation is not None:  # the narrowest section of the leg, above its foot (not the toes)
-        footlike = finite[np.nan_to_num(elongation[finite]) > MAX_CALF_ELONGATION]
-        if footlike.size and (finite > footlike.max()).sum() >= 3:
-            finite = finite[finite > footlike.max()]
+    feet = finite[footlike[finite]]  # the narrowest section of the leg, above its foot (not the toes)
+    if feet.size and (finite > feet.max()).sum() >= 3:
+        finite = finite[finite > feet.max()]
     narrowest = finite[np.argmin(g[finite])]
     up = finite[finite > narrowest]
     got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) for _, _, failure in failures)

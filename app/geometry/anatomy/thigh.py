@@ -297,7 +297,7 @@ def _thigh_tilt_deg(heights: np.ndarray, sections: PolarSections, d_mm: float) -
     """Angle (degrees) between the calf frame's z and the least-squares line through the
     centroids of ``sections`` at ``heights`` (k,) mm from THIGH_AXIS_FROM_D_MM above D
     up; None with fewer than 4 closed sections there."""
-    rows = (heights >= d_mm + THIGH_AXIS_FROM_D_MM) & np.isfinite(sections.tape_perimeters())
+    rows = (heights >= d_mm + THIGH_AXIS_FROM_D_MM) & sections.valid
     if rows.sum() < 4:
         return None
     drift = np.polyfit(heights[rows], sections.centroids_mm[rows], 1)[0]  # (2,) mm of x, y per mm of z
