@@ -86,9 +86,13 @@ def test_a_knee_without_a_level_crown_is_measured_and_said_to_be_uncertain():
     MakeHuman legs' knees): E is read, with a warning that gives its uncertainty; the leg
     with a crown has none."""
     rising = thigh_measures(_leg(radius=lambda z: 57.0 + 0.1 * z + 2e-4 * z**2), None, D, knee_bent=False)
-    assert rising.knee.girth_mm is not None and len(rising.warnings) == 1
-    assert "no level crown" in rising.warnings[0] and "mm of cE" in rising.warnings[0]
-    said = float(re.search(r"and (\d+) mm of cE", rising.warnings[0]).group(1))
+    # one warning about the knee (this leg's crease at the fold, read as a cloud, is
+    # widened by the band's 5 mm; its thigh's girth rises 1.6 mm per mm there, so it may
+    # also say cG is uncertain by about 4 mm: app.geometry.anatomy.gluteal_fold)
+    knee_warnings = [w for w in rising.warnings if "gluteal fold" not in w]
+    assert rising.knee.girth_mm is not None and len(knee_warnings) == 1
+    assert "no level crown" in knee_warnings[0] and "mm of cE" in knee_warnings[0]
+    said = float(re.search(r"and (\d+) mm of cE", knee_warnings[0]).group(1))
     assert rising.knee.uncertainty_mm == pytest.approx(said, abs=0.5)
     assert thigh_measures(_leg(), None, D, knee_bent=False).warnings == ()
     # re-scans of the rising knee (the cloud with 0.3 mm of noise): each says cE is
@@ -185,3 +189,46 @@ def test_a_crownless_knees_middle_stays_put_on_noisy_re_scans():
     noisy = [clean + rng.normal(0.0, 1.0, clean.shape) for _ in range(12)]
     moved = [abs(thigh_measures(scan, None, D, knee_bent=False).knee.height_mm - reference) for scan in noisy]
     assert np.percentile(moved, 95) < 3.0, moved  # 1.6 mm; the local slope's 4.5
+
+
+def _as_mesh(cloud: np.ndarray, around: int = 360) -> tuple[np.ndarray, np.ndarray]:
+    """The rings of a _leg cloud (n, 3), ``around`` points each, joined into a mesh:
+    (n, 3) vertices and (f, 3) faces, two triangles between neighbours of two rings."""
+    rings = len(cloud) // around
+    ring, step = np.meshgrid(np.arange(rings - 1), np.arange(around), indexing="ij")
+    a = (ring * around + step).ravel()
+    b = (ring * around + (step + 1) % around).ravel()
+    c, d = a + around, b + around
+    return cloud, np.vstack([np.column_stack([a, b, c]), np.column_stack([b, d, c])])
+
+
+@pytest.mark.parametrize("width_mm", [4.0, 12.0])
+def test_a_clouds_gluteal_fold_is_where_its_meshs_is(width_mm):
+    """A cloud's posterior profile is read on bands of points round each height; above the
+    fold the back goes back 1 mm per mm, so a band's rearmost points sit at its top edge and,
+    read as they are, put the fold low by about the band's half width (3 mm on this leg).
+    Brought to the band's height along the back's slope they do not: the cloud's G is
+    the mesh's (the same rings joined into triangles, read on exact plane sections)."""
+    cloud = _leg(centre_y=lambda z: _smooth_fold_centre_y(z, width_mm))
+    as_cloud = thigh_measures(cloud, None, D, knee_bent=False).top_of_thigh
+    as_mesh = thigh_measures(*_as_mesh(cloud), D, knee_bent=False).top_of_thigh
+    assert as_cloud.height_mm == pytest.approx(as_mesh.height_mm, abs=1.0)
+    # the thigh's girth rises 1.3 mm per mm there: cG within that of a 1 mm height
+    assert as_cloud.girth_mm == pytest.approx(as_mesh.girth_mm, abs=1.5)
+
+
+def test_a_cloud_sparser_round_the_back_gives_the_same_gluteal_fold():
+    """The back half of the cloud kept at 1 point in 4 (a scanner that saw it at a slant,
+    the corpus's cloud_uneven), 8 times: the back of a band is its share of the section's
+    angle, not of its points, so G stays within 1.4 mm of the even cloud's (a percentile of
+    the points reached round the sparse back by a depth that changes with the section's
+    shape: G moved by up to 4.4 mm, 1.7 mm in the median)."""
+    cloud = _leg(centre_y=_smooth_fold_centre_y)
+    back = cloud[:, 1] < _smooth_fold_centre_y(cloud[:, 2] - D)
+    even = thigh_measures(cloud, None, D, knee_bent=False).top_of_thigh.height_mm
+    moved = []
+    for seed in range(8):
+        rng = np.random.default_rng(seed)
+        sparse_back = cloud[~back | (rng.random(len(cloud)) < 0.25)]
+        moved.append(thigh_measures(sparse_back, None, D, knee_bent=False).top_of_thigh.height_mm - even)
+    assert np.max(np.abs(moved)) < 2.0 and abs(np.median(moved)) < 1.0, moved
