@@ -51,6 +51,14 @@ CLOUD_PROFILE_HALF_MM = 4.0
 #: a cloud's band counts its points per angle round the band's centre in this many sectors
 #: (the paper's 72 polar rays, 5 degrees each): each sector weighs the same
 CLOUD_SECTORS = 72
+#: half the bend's maximum is a convention for the fold's extent, as a full width at half
+#: maximum is; read at these fractions of it instead, G's middle barely moves on a crease
+#: or a fold symmetric about its middle, and moves far where the bend is a long ramp with a
+#: peak on top - where a scanner's noise, by lifting that peak, narrows the run at half
+#: maximum to the peak and moves G along the ramp without widening it (the held-out legs of
+#: benchmarks/chart_accuracy.py 8 5: a noisy mesh read G 16 mm above its clean mesh's,
+#: cG 9.3 mm off, and said nothing; this shift says 11.6 mm of cG)
+PEAK_LEVELS = (1 / 3, 2 / 3)
 #: the back of the leg: this percentile of a section's y (the rearmost 2%), averaged over
 #: +-PROFILE_SMOOTH_MM of height
 REAR_PERCENTILE = 2.0
@@ -156,11 +164,22 @@ class GlutealFold:
     the bend's peak, its ends read between the samples), or None with the ``reason``;
     ``excess_half_width_mm`` how much wider than a corner the bend's peak is (its half
     width at half maximum less SLOPE_HALF_MM, a sharp corner's own: 0 for a crease, the
-    fold's own half extent for a smooth one)."""
+    fold's own half extent for a smooth one); ``level_shift_mm`` how much G depends on
+    reading the peak's extent at half its maximum (PEAK_LEVELS)."""
 
     height_mm: float | None
     reason: str | None
     excess_half_width_mm: float = 0.0
+    #: how far G moves when the peak's run is read at PEAK_LEVELS of its maximum instead
+    #: of half (0 for a crease or a fold symmetric about its middle), mm
+    level_shift_mm: float = 0.0
+
+    @property
+    def height_uncertainty_mm(self) -> float:
+        """How far G may lie from ``height_mm`` along the leg: the fold's own half extent
+        beyond a crease's, or how far its middle moves with the level its run is read at,
+        whichever is more (mm)."""
+        return max(self.excess_half_width_mm, self.level_shift_mm)
 
 
 def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
@@ -208,4 +227,6 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     half_width = (run.top_mm - run.bottom_mm) / 2
     # G is the middle of that run, as E is of the knee's level stretch: the largest bend
     # alone wanders along a smooth fold's flat peak with a scanner's noise
-    return GlutealFold(run.middle_mm, None, max(half_width - SLOPE_HALF_MM, 0.0))
+    shift = max(abs(run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak,
+                                          -bend_here[peak] * level).middle_mm - run.middle_mm) for level in PEAK_LEVELS)
+    return GlutealFold(run.middle_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift)

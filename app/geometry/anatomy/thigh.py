@@ -353,25 +353,30 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     profile_g = planes_girth[np.searchsorted(planes, profile_z)]
     finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
     profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
-    # a fold smoother than a crease: G is uncertain by the fold's own half extent, and cG
-    # by that times the thigh's girth slope just below G (a least-squares line over the
-    # profile's last 2 SLOPE_HALF_MM); said when that is more than an order's tolerance
+    # a fold smoother than a crease: G is uncertain by the fold's own half extent (or by
+    # how far its middle moves with the level its extent is read at), and cG by that times
+    # the thigh's girth slope just below G (a least-squares line over the profile's last
+    # 2 SLOPE_HALF_MM); said when that is more than an order's tolerance
     near = profile_z >= profile_z[-1] - 2 * SLOPE_HALF_MM
     girth_slope = float(np.polyfit(profile_z[near], profile_g[near], 1)[0]) if near.sum() >= 2 else 0.0
-    g_uncertain = fold.excess_half_width_mm * abs(girth_slope) > GIRTH_TOLERANCE_MM
+    g_height = fold.height_uncertainty_mm
+    g_uncertain = g_height * abs(girth_slope) > GIRTH_TOLERANCE_MM
     if g_uncertain or middle.height_uncertainty_mm:
         # F lies halfway: its height is uncertain by half of E's and G's, its girth by that
         # times the profile's slope at F
-        f_height = middle.height_uncertainty_mm / 2 + (fold.excess_half_width_mm if g_uncertain else 0.0) / 2
+        f_height = middle.height_uncertainty_mm / 2 + (g_height if g_uncertain else 0.0) / 2
         f_slope = float(np.interp(f_mm, profile_z, np.gradient(profile_g, profile_z))) if len(profile_z) > 1 else 0.0
         if f_height * abs(f_slope) > GIRTH_TOLERANCE_MM:
             mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=float(f_height * abs(f_slope)))
     if g_uncertain:
-        top_of_thigh = dataclasses.replace(top_of_thigh, uncertainty_mm=float(fold.excess_half_width_mm * abs(girth_slope)))
+        top_of_thigh = dataclasses.replace(top_of_thigh, uncertainty_mm=float(g_height * abs(girth_slope)))
+        extent = (f"it spans about {fold.excess_half_width_mm:.0f} mm of height either side of G beyond a crease's width"
+                  if fold.excess_half_width_mm >= fold.level_shift_mm else
+                  f"its bend rises along about {fold.level_shift_mm:.0f} mm of height below or above G, so where G lies "
+                  f"depends on where the fold is taken to begin")
         warnings = warnings + (
-            f"the gluteal fold is smooth, not a crease: it spans about {fold.excess_half_width_mm:.0f} mm of height "
-            f"either side of G beyond a crease's width, where the thigh's girth changes {abs(girth_slope):.1f} mm per mm, "
-            f"so cG and lG (and F, halfway to it) are uncertain by about "
-            f"{fold.excess_half_width_mm * abs(girth_slope):.0f} mm of cG; a tape just below the fold decides",)
+            f"the gluteal fold is smooth, not a crease: {extent}, where the thigh's girth changes "
+            f"{abs(girth_slope):.1f} mm per mm, so cG and lG (and F, halfway to it) are uncertain by about "
+            f"{g_height * abs(girth_slope):.0f} mm of cG; a tape just below the fold decides",)
     return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g),
                          warnings)
