@@ -98,6 +98,20 @@ def _sector_weights(group: np.ndarray, x: np.ndarray, y: np.ndarray, n_heights: 
     return 1.0 / np.bincount(cell, minlength=n_heights * CLOUD_SECTORS)[cell]
 
 
+def _gaps_filled(heights: np.ndarray, profile: np.ndarray) -> np.ndarray:
+    """``profile`` (k,) with its NaN gaps read linearly between their neighbours (held
+    at the ends); at least one finite value.  mm."""
+    finite = np.isfinite(profile)
+    return np.interp(heights, heights[finite], profile[finite])
+
+
+def _central_slopes(filled: np.ndarray) -> np.ndarray:
+    """dy/dz over +-SLOPE_HALF_MM of a gap-free profile ``filled`` (k,) every STEP_MM: the
+    (k - 2 lag,) slopes of its samples lag = SLOPE_HALF_MM / STEP_MM from either end."""
+    lag = int(round(SLOPE_HALF_MM / STEP_MM))
+    return (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+
+
 def _smoothed(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
     """``rear`` (k,) averaged over +-PROFILE_SMOOTH_MM of ``heights`` (k,), gaps read
     between their neighbours and left NaN.  mm."""
@@ -105,21 +119,17 @@ def _smoothed(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
     reach = int(round(PROFILE_SMOOTH_MM / STEP_MM))
     if finite.sum() <= 2 * reach + 1:
         return rear
-    filled = np.interp(heights, heights[finite], rear[finite])
     kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
-    smooth = np.convolve(np.pad(filled, reach, mode="edge"), kernel, mode="valid")
+    smooth = np.convolve(np.pad(_gaps_filled(heights, rear), reach, mode="edge"), kernel, mode="valid")
     return np.where(finite, smooth, np.nan)
 
 
 def _profile_slope(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
-    """dy/dz (k,) of the profile ``rear`` (k,) over +-SLOPE_HALF_MM (the fold's own slope,
-    :func:`gluteal_fold`), gaps read between their neighbours; the ends held flat beyond the profile."""
-    finite = np.isfinite(rear)
+    """dy/dz (k,) of the profile ``rear`` (k,, at least one finite) over +-SLOPE_HALF_MM
+    (the fold's own slope, :func:`gluteal_fold`), gaps read between their neighbours; the
+    ends held flat beyond the profile."""
     lag = int(round(SLOPE_HALF_MM / STEP_MM))
-    if finite.sum() < 2:
-        return np.zeros(len(heights))
-    filled = np.pad(np.interp(heights, heights[finite], rear[finite]), lag, mode="edge")
-    return (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+    return _central_slopes(np.pad(_gaps_filled(heights, rear), lag, mode="edge"))
 
 
 def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
@@ -148,7 +158,7 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
     group = (index[:, None] + offsets[None, :]).ravel()
     keep = (group >= 0) & (group < len(heights))
     group = group[keep]
-    x, y, z = (np.repeat(points[:, axis], len(offsets))[keep] for axis in range(3))
+    x, y, z = np.repeat(points, len(offsets), axis=0)[keep].T
     weight = _sector_weights(group, x, y, len(heights))
     as_is = _smoothed(heights, _rearmost(group, y, weight, len(heights)))
     if not np.isfinite(as_is).any():
@@ -205,9 +215,8 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     above = np.flatnonzero(np.isfinite(rear) & (heights > heights[back]))
     if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
         return GlutealFold(None, cut)
-    filled = np.interp(heights, heights[np.isfinite(rear)], rear[np.isfinite(rear)])
     slope = np.full(len(heights), np.nan)
-    slope[lag:-lag] = (filled[2 * lag:] - filled[:-2 * lag]) / (2 * SLOPE_HALF_MM)
+    slope[lag:-lag] = _central_slopes(_gaps_filled(heights, rear))
     bend = np.full(len(heights), -np.inf)
     bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
     search = valid[valid < back]
@@ -222,11 +231,14 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
                   f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
                   f"fold is too smooth to place; a tape at the fold decides")
         return GlutealFold(None, reason)
-    # the peak's run at half maximum, its ends where the bend crosses half the peak's
-    run = run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] / 2)
+    def run_at(level: float):
+        """The peak's run where the bend is at least ``level`` of its maximum, its ends
+        where the bend crosses that."""
+        return run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] * level)
+
+    run = run_at(0.5)
     half_width = (run.top_mm - run.bottom_mm) / 2
     # G is the middle of that run, as E is of the knee's level stretch: the largest bend
     # alone wanders along a smooth fold's flat peak with a scanner's noise
-    shift = max(abs(run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak,
-                                          -bend_here[peak] * level).middle_mm - run.middle_mm) for level in PEAK_LEVELS)
+    shift = max(abs(run_at(level).middle_mm - run.middle_mm) for level in PEAK_LEVELS)
     return GlutealFold(run.middle_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift)
