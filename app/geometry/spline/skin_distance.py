@@ -135,18 +135,21 @@ def _offsets_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndarra
     candidates = np.sort(np.concatenate([table[nearest].reshape(len(samples), -1), near_faces.reshape(len(samples), -1)],
                                         axis=1), axis=1)  # (s, k * F + t), the -1 padding first
     # each triangle once (a triangle round two of the nearest vertices is also among the
-    # nearest centroids): its repeats become padding, and a descending sort packs every
-    # row's distinct triangles first, cut to the widest row's (about half the columns)
-    candidates[:, 1:][candidates[:, 1:] == candidates[:, :-1]] = -1
-    candidates = -np.sort(-candidates, axis=1)
-    valid = candidates >= 0
-    width = max(int(valid.sum(axis=1).max()), 1)
-    candidates, valid = candidates[:, :width], valid[:, :width]
-    tri = faces[np.where(valid, candidates, 0)]  # (s, c, 3)
-    away = point_triangle_offsets(samples[:, None, :], vertices[tri[..., 0]], vertices[tri[..., 1]],
-                                  vertices[tri[..., 2]])  # (s, c, 3): sample - closest point
-    distance = np.where(valid, np.einsum("scd,scd->sc", away, away), np.inf)
-    return -away[np.arange(len(samples)), np.argmin(distance, axis=1)]
+    # nearest centroids), the distinct (sample, triangle) pairs flattened row by row: a
+    # row has ~16 of its 36 columns distinct, so the exact distance runs on those alone
+    distinct = candidates >= 0
+    distinct[:, 1:] &= candidates[:, 1:] != candidates[:, :-1]
+    sample = np.nonzero(distinct)[0]  # (p,) rising: each sample's pairs are contiguous
+    tri = faces[candidates[distinct]]  # (p, 3)
+    away = point_triangle_offsets(samples[sample], vertices[tri[:, 0]], vertices[tri[:, 1]],
+                                  vertices[tri[:, 2]])  # (p, 3): sample - closest point
+    distance = np.einsum("pd,pd->p", away, away)
+    # each sample's nearest pair: the first of its pairs at its least distance
+    # (every sample has pairs: its nearest centroids'), so its pairs start where its index does
+    least = np.minimum.reduceat(distance, np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]]))
+    hit = np.flatnonzero(distance == least[sample])
+    first = hit[np.r_[True, sample[hit][1:] != sample[hit][:-1]]]
+    return -away[first]
 
 
 def surface_to_scan(surface: NurbsSurface, points: np.ndarray, faces: np.ndarray | None,
