@@ -173,9 +173,13 @@ class GlutealFold:
     """The gluteal fold found in the posterior profile: G's ``height_mm`` (the middle of
     the bend's peak, its ends read between the samples), or None with the ``reason``;
     ``excess_half_width_mm`` how much wider than a corner the bend's peak is (its half
-    width at half maximum less SLOPE_HALF_MM, a sharp corner's own: 0 for a crease, the
-    fold's own half extent for a smooth one); ``level_shift_mm`` how much G depends on
-    reading the peak's extent at half its maximum (PEAK_LEVELS)."""
+    width at half maximum less SLOPE_HALF_MM, a sharp corner's own: the fold's own half
+    extent for a smooth one; 1.7 mm for an ideal corner sampled on the STEP_MM planes,
+    whose peak the profile's +-PROFILE_SMOOTH_MM average widens - left in, not taken
+    off: a noisy mesh narrows a smooth fold's peak by as much and more, and this floor is
+    part of what its stated uncertainty covers, benchmarks/chart_accuracy.py 8 5);
+    ``level_shift_mm`` how much G depends on reading the peak's extent at half its
+    maximum (PEAK_LEVELS)."""
 
     height_mm: float | None
     reason: str | None

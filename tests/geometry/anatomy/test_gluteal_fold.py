@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.geometry.anatomy.gluteal_fold import gluteal_fold
+from app.geometry.anatomy.gluteal_fold import _smoothed, gluteal_fold
 
 FOLD = 300.0  # mm up the profile
 
@@ -28,6 +28,11 @@ def test_a_crease_is_where_it_is_and_certain():
     fold = gluteal_fold(heights, rear, 100.0, float(heights[-1]))
     assert fold.height_mm == pytest.approx(FOLD, abs=1.0)
     assert fold.excess_half_width_mm < 1.0 and fold.level_shift_mm < 1.0 and fold.height_uncertainty_mm < 1.0
+    # the profile as posterior_profile gives it, averaged over +-PROFILE_SMOOTH_MM: the
+    # corner stays put, its peak widened by 1.7 mm (GlutealFold's docstring)
+    smoothed = gluteal_fold(heights, _smoothed(heights, rear), 100.0, float(heights[-1]))
+    assert smoothed.height_mm == pytest.approx(FOLD, abs=1.0)
+    assert smoothed.excess_half_width_mm == pytest.approx(1.7, abs=0.2) and smoothed.level_shift_mm < 1.0
 
 
 def test_a_lifted_peak_on_a_ramp_moves_g_by_no_more_than_it_says():
