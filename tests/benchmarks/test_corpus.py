@@ -69,3 +69,15 @@ def test_a_crop_names_what_is_really_missing(case_id):
     case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
     result = run_case(case)
     assert result["outcome"] == case.expect, result.get("detail")
+
+
+def test_a_scan_cut_below_its_knee_waist_says_the_waist_may_be_thinner():
+    """A leg cut 52 mm below its knee waist whose girth levels off into the cut (the
+    robustness corpus's cut_below_knee-02, seed 7) is fitted with D at the scan's edge: its
+    cD is the edge's girth, which can only be the waist's or more (9 mm more here), and
+    the record says the waist may be thinner and higher."""
+    spec = {s.case_id: s for s in corpus_specs(220, 7)}["cut_below_knee-02"]
+    result = run_case(build_case(spec))
+    assert result["outcome"] == "fit" and "D" in result["at_scan_edge"]
+    assert result["girth_error_mm"]["D"] > 0.0
+    assert any("may be thinner than cD and higher than lD" in w for w in result["warnings"])
