@@ -144,8 +144,8 @@ def _offsets_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndarra
     away = point_triangle_offsets(samples[sample], vertices[tri[:, 0]], vertices[tri[:, 1]],
                                   vertices[tri[:, 2]])  # (p, 3): sample - closest point
     distance = np.einsum("pd,pd->p", away, away)
-    # each sample's nearest pair: the first of its pairs at its least distance
-    # (every sample has pairs: its nearest centroids'), so its pairs start where its index does
+    # each sample's nearest pair: the first of its pairs at its least distance (every
+    # sample has pairs - its nearest centroids - so the runs' minima are indexed by sample)
     least = np.minimum.reduceat(distance, np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]]))
     hit = np.flatnonzero(distance == least[sample])
     first = hit[np.r_[True, sample[hit][1:] != sample[hit][:-1]]]
