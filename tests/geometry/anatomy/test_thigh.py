@@ -252,3 +252,19 @@ def test_a_points_girth_uncertainty_is_the_most_its_girth_changes_where_it_may_l
     holed[heights == 55.0] = np.nan
     assert girth_spread(heights, holed, 50.0, 5.0) == pytest.approx(7.5)
     assert girth_spread(heights, girths, 50.0, 0.0) == 0.0
+
+
+def test_f_inherits_the_height_uncertainty_of_a_knee_whose_girth_stays_level():
+    """A knee whose girth rises only 0.02-0.05 mm per mm over its whole window (no crown:
+    E may lie anywhere along 130 mm, yet cE changes less than 3 mm there, so cE is not said
+    to be uncertain) under a thigh whose girth rises 1.6 mm per mm: F, halfway between E
+    and G, moves with E by half as much, and cF states the girth change over that reach."""
+    def level_knee(z: np.ndarray) -> np.ndarray:
+        knee = 57.0 + 0.002 * z + 2e-5 * z**2
+        return np.where(z <= 220.0, knee, 57.0 + 0.002 * 220.0 + 2e-5 * 220.0**2 + 0.25 * (z - 220.0))
+
+    found = thigh_measures(_leg(radius=level_knee), None, D, knee_bent=False)
+    assert found.knee.girth_mm is not None and found.knee.uncertainty_mm is None
+    assert found.mid_thigh.girth_mm is not None and found.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=4.0)
+    # E's reach is about half the 130 mm stretch; F's half that, on a 1.6 mm/mm thigh
+    assert found.mid_thigh.uncertainty_mm is not None and found.mid_thigh.uncertainty_mm > 20.0
