@@ -9,7 +9,7 @@ import re
 import numpy as np
 import pytest
 
-from app.geometry.anatomy.thigh import girth_spread, thigh_measures
+from app.geometry.anatomy.thigh import thigh_measures
 from app.geometry.placement.place import place_leg
 from tests.conftest import fitted
 
@@ -237,21 +237,6 @@ def test_a_cloud_sparser_round_the_back_gives_the_same_gluteal_fold():
         sparse_back = cloud[~back | (rng.random(len(cloud)) < 0.25)]
         moved.append(thigh_measures(sparse_back, None, D, knee_bent=False).top_of_thigh.height_mm - even)
     assert np.max(np.abs(moved)) < 2.0 and abs(np.median(moved)) < 1.0, moved
-
-
-def test_a_points_girth_uncertainty_is_the_most_its_girth_changes_where_it_may_lie():
-    """girth_spread reads the girth either side of the point: a thigh whose girth rises 0.2
-    mm per mm below a smooth fold and 1.5 above it (the buttock) is uncertain by the rise
-    above it (7.5 mm within 5 mm of the fold, where the slope below says 1), a plane without
-    a closed section (NaN) is read between its neighbours, and no reach is no uncertainty."""
-    heights = np.arange(0.0, 101.0, 5.0)
-    girths = np.where(heights <= 50.0, 500.0 + 0.2 * heights, 510.0 + 1.5 * (heights - 50.0))
-    assert girth_spread(heights, girths, 50.0, 5.0) == pytest.approx(7.5)
-    assert girth_spread(heights, girths, 25.0, 5.0) == pytest.approx(1.0)
-    holed = girths.copy()
-    holed[heights == 55.0] = np.nan
-    assert girth_spread(heights, holed, 50.0, 5.0) == pytest.approx(7.5)
-    assert girth_spread(heights, girths, 50.0, 0.0) == 0.0
 
 
 def test_f_inherits_the_height_uncertainty_of_a_knee_whose_girth_stays_level():
