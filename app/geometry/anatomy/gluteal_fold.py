@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_between_crossings
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled, run_between_crossings
 from app.geometry.sections import mesh_section_segments
 
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
@@ -98,13 +98,6 @@ def _sector_weights(group: np.ndarray, x: np.ndarray, y: np.ndarray, n_heights: 
     return 1.0 / np.bincount(cell, minlength=n_heights * CLOUD_SECTORS)[cell]
 
 
-def _gaps_filled(heights: np.ndarray, profile: np.ndarray) -> np.ndarray:
-    """``profile`` (k,) with its NaN gaps read linearly between their neighbours (held
-    at the ends); at least one finite value.  mm."""
-    finite = np.isfinite(profile)
-    return np.interp(heights, heights[finite], profile[finite])
-
-
 def _central_slopes(filled: np.ndarray) -> np.ndarray:
     """dy/dz over +-SLOPE_HALF_MM of a gap-free profile ``filled`` (k,) every STEP_MM: the
     (k - 2 lag,) slopes of its samples lag = SLOPE_HALF_MM / STEP_MM from either end."""
@@ -120,7 +113,7 @@ def _smoothed(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
     if finite.sum() <= 2 * reach + 1:
         return rear
     kernel = np.ones(2 * reach + 1) / (2 * reach + 1)
-    smooth = np.convolve(np.pad(_gaps_filled(heights, rear), reach, mode="edge"), kernel, mode="valid")
+    smooth = np.convolve(np.pad(gaps_filled(heights, rear), reach, mode="edge"), kernel, mode="valid")
     return np.where(finite, smooth, np.nan)
 
 
@@ -129,7 +122,7 @@ def _profile_slope(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
     (the fold's own slope, :func:`gluteal_fold`), gaps read between their neighbours; the
     ends held flat beyond the profile."""
     lag = int(round(SLOPE_HALF_MM / STEP_MM))
-    return _central_slopes(np.pad(_gaps_filled(heights, rear), lag, mode="edge"))
+    return _central_slopes(np.pad(gaps_filled(heights, rear), lag, mode="edge"))
 
 
 def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
@@ -220,7 +213,7 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     if heights[back] > top_mm - BUTTOCK_BELOW_TOP_MM or not len(above) or rear[above].max() < rear[back] + BUTTOCK_RETURN_MM:
         return GlutealFold(None, cut)
     slope = np.full(len(heights), np.nan)
-    slope[lag:-lag] = _central_slopes(_gaps_filled(heights, rear))
+    slope[lag:-lag] = _central_slopes(gaps_filled(heights, rear))
     bend = np.full(len(heights), -np.inf)
     bend[lag:-lag] = slope[:-2 * lag] - slope[2 * lag:]  # slope below minus slope above
     search = valid[valid < back]

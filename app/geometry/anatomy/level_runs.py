@@ -1,7 +1,9 @@
 """Runs of a profile sampled along the leg: the samples round one where a value stays
 under a threshold (:func:`run_around`: the calf's crown in app.geometry.anatomy.landmarks),
 their ends read between the samples (:func:`run_between_crossings`: the knee's level
-stretch in app.geometry.anatomy.thigh, the fold's peak in app.geometry.anatomy.gluteal_fold).
+stretch in app.geometry.anatomy.knee_middle, the fold's peak in
+app.geometry.anatomy.gluteal_fold); a profile's gaps read between its samples
+(:func:`gaps_filled`: the back of the leg, the thigh's girth profile).
 
 Heights in mm along the calf frame's z; arrays (k,) evenly spaced by STEP_MM.
 """
@@ -16,6 +18,13 @@ import numpy as np
 STEP_MM = 2.0
 #: their slopes are read over +-SLOPE_HALF_MM of height, mm
 SLOPE_HALF_MM = 10.0
+
+
+def gaps_filled(heights: np.ndarray, profile: np.ndarray) -> np.ndarray:
+    """``profile`` (k,) at ``heights`` (k,) with its NaN gaps read linearly between their
+    neighbours (held at the ends); at least one finite value.  mm."""
+    finite = np.isfinite(profile)
+    return np.interp(heights, heights[finite], profile[finite])
 
 
 @dataclass(frozen=True)

@@ -38,7 +38,7 @@ import numpy as np
 from app.geometry.anatomy.gluteal_fold import gluteal_fold, posterior_profile
 from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle_of_the_knee
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
-from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
 from app.geometry.sections import PolarSections, tape_sections
 
 #: the stored thigh profile's spacing, mm (a knitting specification's usual step)
@@ -144,9 +144,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
                              warnings=warnings)
     mid_thigh, top_of_thigh = read_across_tape(
         (level_on_section("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces)
-    profile_g = planes_girth[np.searchsorted(planes, profile_z)]
-    finite = np.isfinite(profile_g)  # a plane without a closed section: read between its neighbours
-    profile_g = np.interp(profile_z, profile_z[finite], profile_g[finite])
+    # a plane without a closed section: read between its neighbours
+    profile_g = gaps_filled(profile_z, planes_girth[np.searchsorted(planes, profile_z)])
     # a fold smoother than a crease: G is uncertain by the fold's own half extent (or by
     # how far its middle moves with the level its extent is read at), and cG by the most
     # the girth changes within that of G (girth_spread: the girth's slope below G alone
@@ -157,11 +156,9 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # the most it changes within that of F
     g_girth = girth_spread(planes, planes_girth, g_mm, g_height)
     g_uncertain = g_girth > GIRTH_TOLERANCE_MM
-    f_height = (middle.height_uncertainty_mm + g_height) / 2
-    if f_height > 0:
-        f_girth = girth_spread(planes, planes_girth, f_mm, f_height)
-        if f_girth > GIRTH_TOLERANCE_MM:
-            mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=f_girth)
+    f_girth = girth_spread(planes, planes_girth, f_mm, (middle.height_uncertainty_mm + g_height) / 2)
+    if f_girth > GIRTH_TOLERANCE_MM:
+        mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=f_girth)
     if g_uncertain:
         top_of_thigh = dataclasses.replace(top_of_thigh, uncertainty_mm=g_girth)
         extent = (f"it spans about {fold.excess_half_width_mm:.0f} mm of height either side of G beyond a crease's width"
