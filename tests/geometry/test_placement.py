@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
 from app.geometry.scan.reader import load_scan
 from benchmarks.corpus.degrade import coarsen, crop
@@ -87,3 +88,37 @@ def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path
     fit = fit_scan(load_scan(path), FitOptions(side="left"))
     for name in ("B", "C"):
         assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
+
+
+# --- one leg scanned twice ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("apart_mm", [4.0, 15.0])
+def test_two_unmerged_passes_of_one_leg_are_one_leg_measured_once_and_said(tmp_path, apart_mm):
+    """BodyParts3D's leg and a copy of it moved ``apart_mm`` sideways in one file (two
+    passes of a scanner exported unmerged, the leg moved between them): clean-up reads
+    two pieces, both place as legs; they are one leg - measured on one copy, its side
+    told from its foot, its girths the single leg's - and the warning says so.  Two
+    legs side by side cannot overlap: the same copies 120 mm apart are two legs."""
+    leg = trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+    alone = check_scan(load_scan(REAL / "bodyparts3d_right_leg.stl"))
+    sideways = np.array([1.0, 0.0, 0.0])  # the file stands along +z
+    twice = trimesh.util.concatenate([leg, leg.copy().apply_translation(apart_mm * sideways)])
+    path = tmp_path / "twice.stl"
+    twice.export(path)
+    scan = load_scan(path)
+    placement = check_scan(scan)
+    assert placement.side == alone.side == "right"
+    warning = next(w for w in placement.warnings if "holds this leg 2 times" in w)
+    assert f"up to {apart_mm:.0f} mm apart" in warning
+    fit = fit_scan(scan, placement=placement)
+    single = fit_scan(load_scan(REAL / "bodyparts3d_right_leg.stl"), placement=alone)
+    for name in ("B", "C", "D"):
+        assert abs(fit.landmarks.tape_girths_mm[name] - single.landmarks.tape_girths_mm[name]) < 0.5
+
+    two = trimesh.util.concatenate([leg, leg.copy().apply_translation(120.0 * sideways)])
+    path = tmp_path / "two.stl"
+    two.export(path)
+    with pytest.raises(FitFailure) as refused:
+        check_scan(load_scan(path))
+    assert refused.value.reason is FailureReason.SEVERAL_LEGS
