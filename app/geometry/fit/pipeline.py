@@ -35,6 +35,7 @@ from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
+from app.geometry.scan.skin_layers import skin_layers
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.spline.distance import SurfaceError, error_statistics
@@ -327,6 +328,9 @@ def fit_calf(
         fit_warnings.append(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
             "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
+    layers = skin_layers(local[in_calf]) if faces is None else None  # a cloud's skin twice (a mesh's is one surface)
+    if layers is not None and layers.doubled:
+        fit_warnings.append(layers.doubled_text)
     for name in LANDMARK_NAMES:
         tolerance = (landmarks.tolerances_mm or {}).get(name, 0.0)
         if not landmarks.at_edge(name) and landmarks.confidence(name) == "low":
