@@ -14,7 +14,8 @@ man put the mid-patella.
 
 E's uncertainty: E read again with the level stretch's bound half and one and a half
 times as wide (KNEE_LEVEL_SLOPE_JUDGED), or half the least-rising stretch where the knee
-has no crown; cE's is the most its girth changes within that reach
+has no crown, or as far as another stretch of the window whose slope is as near the
+least (the least could as well lie there); cE's is the most its girth changes within that reach
 (:func:`app.geometry.anatomy.level_points.girth_spread`).
 
 Frame: the calf frame (mm; z up the leg from B = 0).  Arrays: heights (k,) every STEP_MM
@@ -145,6 +146,16 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
         # all the way through the knee, as on every generated MakeHuman leg): E may lie
         # anywhere along the least-rising stretch, half its length either way
         moved_mm = max(moved_mm, (level.top_mm - level.bottom_mm) / 2.0)
+    # another stretch of the window rises as little (its slope within KNEE_LEVEL_SLOPE of
+    # the least, apart from E's own run): the least slope could as well lie there, and E
+    # with it.  A crownless knee's slope can be least at both ends of the window (0.669 and
+    # 0.68 mm/mm on a generated leg, benchmarks/motion.py 20 17 leg 8): its clean mesh put
+    # E 146 mm above D saying 4 mm of height, a cloud of it 23 mm above D - cE 134 mm apart
+    rivals = inside[(slope[inside] <= slope[least] + KNEE_LEVEL_SLOPE)
+                    & ((heights[inside] < level.bottom_mm) | (heights[inside] > level.top_mm))]
+    rival_mm = float(np.abs(heights[rivals] - e_mm).max()) if rivals.size else 0.0
+    rival_at = float(heights[rivals[np.argmax(np.abs(heights[rivals] - e_mm))]] - heights[0]) if rivals.size else 0.0
+    moved_mm = max(moved_mm, rival_mm)
     # cE is uncertain by the most its girth changes within that reach of E (the least
     # slope times the reach understated it where the girth's rise steepens: a re-scan's
     # cE read 4.3 mm off where 3.5 were said, benchmarks/chart_accuracy.py 8 3)
@@ -153,7 +164,9 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
     if e_uncertain:
         knee = dataclasses.replace(knee, uncertainty_mm=moved_girth)
         # said when that moves cE by more than an order's girths are held to
-        why = (f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
+        why = (f"the knee's girth rises as little {rival_at:.0f} mm above D as at E, {e_mm - heights[0]:.0f} mm above "
+               "D, so E (cE, lE) may lie at either or between" if rival_mm >= moved_mm > 0 else
+               f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
                f"from {KNEE_WINDOW_MM[0]:.0f} to {KNEE_WINDOW_MM[1]:.0f} mm above D, so E (cE, lE) is the middle "
                f"of its least-rising stretch" if crownless else
                "the knee's level stretch has no sharp ends (its girth's slope leaves the level slowly), so E (cE, lE), "

@@ -253,3 +253,30 @@ def test_f_inherits_the_height_uncertainty_of_a_knee_whose_girth_stays_level():
     assert found.mid_thigh.girth_mm is not None and found.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=4.0)
     # E's reach is about half the 130 mm stretch; F's half that, on a 1.6 mm/mm thigh
     assert found.mid_thigh.uncertainty_mm is not None and found.mid_thigh.uncertainty_mm > 20.0
+
+
+def _girth_rising_least_at_both_ends(z: np.ndarray) -> np.ndarray:
+    """Radius (mm) at z mm above D of a knee whose girth rises 0.665 mm per mm at D + 20,
+    up to 1.27 halfway and down to 0.66 at D + 150 (a generated leg's knee, whose least
+    slope E's rule found at either end on two scans of it), then 0.66 on."""
+    fine = np.arange(0.0, 600.0, 0.25)
+    t = np.clip((fine - 20.0) / 130.0, 0.0, 1.0)
+    slope = np.where((fine >= 20.0) & (fine <= 150.0), 0.665 + 0.6 * np.sin(np.pi * t) - 0.005 * t,
+                     np.where(fine < 20.0, 0.665, 0.66))
+    girth = 370.0 + np.concatenate([[0.0], np.cumsum(0.5 * (slope[1:] + slope[:-1]) * 0.25)])
+    return np.interp(z, fine, girth) / (2 * np.pi)
+
+
+def test_a_knee_rising_as_little_at_both_ends_of_its_window_says_e_may_lie_at_either():
+    """The least slope at one end and as little at the other: E is read at one of them,
+    and its stated uncertainty reaches the other (there cE would read over 80 mm less or
+    more); one warning says both heights."""
+    found = thigh_measures(_leg(radius=_girth_rising_least_at_both_ends), None, D, knee_bent=False)
+    warning = next(w for w in found.warnings if "rises as little" in w)
+    assert "may lie at either" in warning
+    e_above_d = found.knee.height_mm - D
+    other = 20.0 if e_above_d > 85.0 else 150.0
+    assert abs(float(re.search(r"rises as little (\d+) mm above D", warning).group(1)) - other) <= 3.0
+    at_other = 2 * np.pi * _girth_rising_least_at_both_ends(np.array([other]))[0]
+    assert found.knee.uncertainty_mm >= abs(at_other - found.knee.girth_mm) - 1.0
+    assert found.knee.uncertainty_mm > 60.0
