@@ -93,18 +93,17 @@ def skin_layers(points: np.ndarray) -> SkinLayers | None:
     _, nearest = cKDTree(points).query(seeds, k=NEIGHBOURS)
     local = points[nearest]
     local -= local.mean(axis=1, keepdims=True)  # (s, k, 3)
-    _, axes = np.linalg.eigh(np.einsum("ski,skj->sij", local, local))  # ascending: the normal first
-    u = np.einsum("ski,si->sk", local, axes[:, :, 2])
-    v = np.einsum("ski,si->sk", local, axes[:, :, 1])
-    h = np.einsum("ski,si->sk", local, axes[:, :, 0])
+    _, axes = np.linalg.eigh(np.matmul(local.transpose(0, 2, 1), local))  # ascending: the normal first
+    u, v, h = np.moveaxis(np.matmul(local, axes[:, :, ::-1]), -1, 0)  # (s, k) each: along, across, normal
     design = np.stack([u * u, u * v, v * v, u, v, np.ones_like(u)], axis=-1)  # (s, k, 6)
-    normal = np.einsum("ski,skj->sij", design, design) + 1e-9 * np.eye(6)
-    coefficients = np.linalg.solve(normal, np.einsum("ski,sk->si", design, h)[..., None])[..., 0]
-    residual = h - np.einsum("ski,si->sk", design, coefficients)
+    normal = np.matmul(design.transpose(0, 2, 1), design) + 1e-9 * np.eye(6)
+    coefficients = np.linalg.solve(normal, np.matmul(design.transpose(0, 2, 1), h[..., None]))  # (s, 6, 1)
+    residual = h - np.matmul(design, coefficients)[..., 0]
     residual -= residual.mean(axis=1, keepdims=True)
-    m2 = np.maximum(np.mean(residual**2, axis=1), 1e-18)
-    skewness = np.mean(residual**3, axis=1) / m2**1.5
-    kurtosis = np.mean(residual**4, axis=1) / m2**2
+    squared = residual * residual
+    m2 = np.maximum(squared.mean(axis=1), 1e-18)
+    skewness = (squared * residual).mean(axis=1) / m2**1.5
+    kurtosis = (squared * squared).mean(axis=1) / m2**2
     coefficient = (skewness**2 + 1.0) / kurtosis
     separation = 2.0 * np.sqrt(m2)
     return SkinLayers(float(np.median(coefficient)), float(np.percentile(separation, 90)), len(seeds))
