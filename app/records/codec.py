@@ -170,6 +170,8 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
     }
     if result.skin is not None:
         fit["surface_to_scan"] = result.skin.as_dict()
+    if result.skin_layers is not None:
+        fit["skin_layers"] = result.skin_layers.as_dict()
     if result.lsq is not None:
         fit["grid"] = {"along": result.lsq.grid.along, "around": result.lsq.grid.around}
         fit["correction_rms_mm"] = list(result.lsq.rms_mm)

@@ -35,7 +35,7 @@ from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
-from app.geometry.scan.skin_layers import skin_layers
+from app.geometry.scan.skin_layers import SkinLayers, skin_layers
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 from app.geometry.spline.distance import SurfaceError, error_statistics
@@ -93,6 +93,7 @@ class FitResult:
     lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
     sole_mm: float | None = None  # calf-frame z of the sole (the leg's lowest point) when the foot is in the scan
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
+    skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
     foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
     thigh: ThighMeasures | None = None  # cE, cF, cG (app.geometry.anatomy.thigh) when measured
@@ -367,6 +368,7 @@ def fit_calf(
         placement=placement,
         lsq=lsq_fit,
         skin=skin,
+        skin_layers=layers,
         fit_warnings=tuple(fit_warnings),
     )
 

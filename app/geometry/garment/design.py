@@ -64,6 +64,7 @@ from app.geometry.garment.standards import (
 )
 from app.geometry.garment.stocking_ends import MAX_TOP_BAND_MM, TOES, TOP_BAND_WIDTH_MM, FootOutcome, TopBand, foot_part, top_band
 from app.geometry.garment.thigh_design import ThighPart, thigh_part
+from app.geometry.scan.skin_layers import SkinLayers
 from app.geometry.spline.nurbs import NurbsSurface
 from app.geometry.spline.skin_distance import SkinDistance
 
@@ -196,7 +197,8 @@ class DesignInputs:
 
 
 def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs,
-                    chart: dict | None = None, skin: dict | None = None) -> StockingDesign:
+                    chart: dict | None = None, skin: dict | None = None,
+                    skin_layers: dict | None = None) -> StockingDesign:
     """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
@@ -204,7 +206,9 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     version 3), which a thigh-high (``inputs.stocking_type`` "AG") needs: cE, cF, cG and
     the thigh profile; skin: the record's surface -> scan distances (its
     ``fit.surface_to_scan``, app.geometry.spline.skin_distance.SkinDistance.as_dict): a
-    surface standing off the skin over an arc of a ring makes the design "review".
+    surface standing off the skin over an arc of a ring makes the design "review";
+    skin_layers: the record's ``fit.skin_layers`` (app.geometry.scan.skin_layers.SkinLayers.as_dict):
+    a cloud holding the skin twice makes it "review" too.
     Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
     UNREACHABLE_PRESSURE) with the reason.
     """
@@ -296,7 +300,8 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         thigh=thigh,
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
-        uncertain_inputs=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin),
+        uncertain_inputs=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin)
+        + _doubled_skin(skin_layers),
     )
 
 
@@ -309,6 +314,17 @@ def _off_skin(skin: dict | None) -> tuple[str, ...]:
         return ()
     return (f"the calf surface {distances.off_skin_text}: the girths the stocking is knitted from are not the leg's "
             "there; check the fit, or take that girth by tape",)
+
+
+def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
+    """The sentence for a record fitted from a cloud holding the skin twice (the fit's own
+    warning, :attr:`SkinLayers.doubled`): its girths may read wide by up to twice the
+    layers' separation, and the stocking would be knitted loose by as much."""
+    layers = SkinLayers.from_dict(skin_layers)
+    if layers is None or not layers.doubled:
+        return ()
+    return (f"{layers.doubled_text}; the stocking is knitted from these girths: take B, C and D by tape before "
+            "ordering",)
 
 
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:

@@ -70,6 +70,22 @@ class SkinLayers:
     separation_p90_mm: float
     neighbourhoods: int
 
+    @classmethod
+    def from_dict(cls, data) -> SkinLayers | None:
+        """The layers as a record's ``fit.skin_layers`` stores them (:meth:`as_dict`), or
+        None when ``data`` is not such a dict (a mesh's record, one made before they were
+        kept, one imported from elsewhere)."""
+        if not isinstance(data, dict):
+            return None
+        try:
+            return cls(float(data["bimodality"]), float(data["separation_p90_mm"]), int(data["neighbourhoods"]))
+        except (KeyError, TypeError, ValueError, OverflowError):
+            return None
+
+    def as_dict(self) -> dict:
+        return {"bimodality": self.bimodality, "separation_p90_mm": self.separation_p90_mm,
+                "neighbourhoods": self.neighbourhoods, "doubled": self.doubled}
+
     @property
     def doubled(self) -> bool:
         return self.bimodality > BIMODAL_COEFFICIENT and self.separation_p90_mm >= DOUBLED_MM

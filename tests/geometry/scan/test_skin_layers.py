@@ -11,8 +11,11 @@ import pytest
 import trimesh
 
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.garment.design import DesignInputs, design_stocking
+from app.geometry.garment.fabric import Fabric
 from app.geometry.scan.reader import load_scan
-from app.geometry.scan.skin_layers import BIMODAL_COEFFICIENT, DOUBLED_MM, skin_layers
+from app.geometry.scan.skin_layers import BIMODAL_COEFFICIENT, DOUBLED_MM, SkinLayers, skin_layers
+from app.records.codec import record_from_fit
 from tests.conftest import REAL
 
 
@@ -53,6 +56,9 @@ def test_too_few_points_are_not_measured():
 
 
 def test_the_fit_warns_about_a_doubled_cloud_and_not_about_a_single_one(leg_cloud, tmp_path):
+    """... and the record keeps the layers (``fit.skin_layers``), so a stocking designed
+    from a doubled cloud's record is for review, naming why; a single layer's is judged
+    on its checks alone."""
     first, second = leg_cloud
     for name, points, doubled in (("single", first, False), ("twice", np.vstack([first[:30_000], second + [5.0, 0, 0]]), True)):
         path = tmp_path / f"{name}.ply"
@@ -64,3 +70,16 @@ def test_the_fit_warns_about_a_doubled_cloud_and_not_about_a_single_one(leg_clou
         if doubled:
             wide = float(re.search(r"up to (\d+) mm wide", warned[0]).group(1))
             assert 8.0 <= wide <= 12.0  # twice the layers' ~5 mm
+        record = record_from_fit(fit, scan.source_format, scan.units)
+        assert record.fit["skin_layers"]["doubled"] is doubled
+        design = design_stocking(record.surface, record.landmarks, "right",
+                                 DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
+                                 record.fit["surface_to_scan"], record.fit["skin_layers"])
+        verdict, reasons = design.verdict
+        said = [r for r in reasons if "holds the skin twice" in r and "by tape" in r]
+        assert bool(said) is doubled
+        if doubled:
+            assert verdict in ("review", "fail")
+    # a record imported from elsewhere carries its fit as it likes: no such dict is no reason
+    for junk in ("two", {"bimodality": "x"}, {"bimodality": 0.9}):
+        assert SkinLayers.from_dict(junk) is None
