@@ -153,8 +153,10 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
     # E 146 mm above D saying 4 mm of height, a cloud of it 23 mm above D - cE 134 mm apart
     rivals = inside[(slope[inside] <= slope[least] + KNEE_LEVEL_SLOPE)
                     & ((heights[inside] < level.bottom_mm) | (heights[inside] > level.top_mm))]
-    rival_mm = float(np.abs(heights[rivals] - e_mm).max()) if rivals.size else 0.0
-    rival_at = float(heights[rivals[np.argmax(np.abs(heights[rivals] - e_mm))]] - heights[0]) if rivals.size else 0.0
+    rival_mm, rival_at = 0.0, 0.0  # how far from E the farthest rival lies, and its height above D
+    if rivals.size:
+        farthest = rivals[np.argmax(np.abs(heights[rivals] - e_mm))]
+        rival_mm, rival_at = abs(float(heights[farthest]) - e_mm), float(heights[farthest] - heights[0])
     moved_mm = max(moved_mm, rival_mm)
     # cE is uncertain by the most its girth changes within that reach of E (the least
     # slope times the reach understated it where the girth's rise steepens: a re-scan's

@@ -25,6 +25,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
@@ -197,12 +199,10 @@ def one_copy_per_leg(legs: list[tuple[_Candidate, LegPlacement]]) -> tuple[list[
     """
     centres = np.array([[p.origin_mm, np.asarray(p.origin_mm) + p.c_mm * np.asarray(p.rotation)[2]] for _, p in legs])
     apart = np.linalg.norm(centres[:, None] - centres[None, :], axis=-1).max(axis=-1)  # (n, n) the farther of B, C
-    copy_of = np.arange(len(legs))
-    for i in range(len(legs)):  # a few legs: the first of each group of copies names it
-        same = np.flatnonzero(apart[i] < SAME_LEG_MM)
-        copy_of[same] = min(copy_of[same].min(), copy_of[i])
+    # copies of copies are one leg too: the groups are the graph's connected components
+    n_groups, copy_of = connected_components(csr_matrix(apart < SAME_LEG_MM), directed=False)
     kept, warnings = [], []
-    for group in np.unique(copy_of):
+    for group in range(n_groups):  # a few legs
         members = np.flatnonzero(copy_of == group)
         best = max(members, key=lambda m: legs[m][0].n_points)
         kept.append(legs[best])

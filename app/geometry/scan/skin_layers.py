@@ -4,9 +4,10 @@ A scanner whose passes were exported without being merged, or a leg that moved b
 two passes, gives a cloud with the skin twice: two shells a few mm apart.  The
 sections' robust fit (:mod:`app.geometry.sections.cloud`) then takes, bin by bin, a
 median that jumps between the shells, and the tape - the convex hull of that contour -
-rides the outer one: on generated legs two equal shells 6 mm apart read the girths up
-to 4 mm wide, 3 mm apart up to 1.2 mm.  The worst case is geometry: the convex hull of
-two copies of a section offset by d is 2 d longer than one copy's.  Nothing else in the
+rides the outer one: on generated legs two shells 2.5-6 mm apart read the calf's girths
+up to 5.1 mm wide, and cE, whose E moved with them, 10.7 mm (benchmarks/results/motion.md).
+The worst case is geometry: the convex hull of two copies of a section offset by d is
+2 d longer than one copy's.  Nothing else in the
 cloud betrays it, so :func:`skin_layers` measures it.
 
 Method (statistics of the skin's thickness, no threshold tuned to a scanner):
@@ -58,7 +59,7 @@ NEIGHBOURS = 96
 #: (module docstring): midway
 BIMODAL_COEFFICIENT = 0.48
 #: two layers this far apart (90th percentile) are warned about: on generated legs 3 mm
-#: read the girths up to 1.2 mm wide, 4-6 mm up to 5 mm
+#: read the girths up to 1.2 mm wide, 2.5-6 mm the calf's up to 5.1 mm (benchmarks/motion.py)
 DOUBLED_MM = 2.5
 
 
@@ -112,8 +113,9 @@ def skin_layers(points: np.ndarray) -> SkinLayers | None:
     _, axes = np.linalg.eigh(np.matmul(local.transpose(0, 2, 1), local))  # ascending: the normal first
     u, v, h = np.moveaxis(np.matmul(local, axes[:, :, ::-1]), -1, 0)  # (s, k) each: along, across, normal
     design = np.stack([u * u, u * v, v * v, u, v, np.ones_like(u)], axis=-1)  # (s, k, 6)
-    normal = np.matmul(design.transpose(0, 2, 1), design) + 1e-9 * np.eye(6)
-    coefficients = np.linalg.solve(normal, np.matmul(design.transpose(0, 2, 1), h[..., None]))  # (s, 6, 1)
+    transposed = design.transpose(0, 2, 1)
+    normal = np.matmul(transposed, design) + 1e-9 * np.eye(6)
+    coefficients = np.linalg.solve(normal, np.matmul(transposed, h[..., None]))  # (s, 6, 1)
     residual = h - np.matmul(design, coefficients)[..., 0]
     residual -= residual.mean(axis=1, keepdims=True)
     squared = residual * residual
