@@ -344,6 +344,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             # candidates less than 100 mm apart whose girths between them stay within 2%
             # (a dip between peaks, a rise between shoulders) are one crown: the higher wins
             for other_index, other in valid[1:]:
+                if other_index <= index:  # below the largest of the same calf (it was taken over them)
+                    continue
                 if heights[other_index] - heights[index] > 100.0:
                     break
                 span = g[index : other_index + 1]

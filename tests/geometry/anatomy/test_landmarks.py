@@ -3,6 +3,7 @@ synthetic girth profiles (mm) of a lower leg with the shapes scans gave trouble 
 
 import numpy as np
 import pytest
+from scipy.interpolate import PchipInterpolator
 
 from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, find_feature_heights
 from app.geometry.errors import FailureReason, FitFailure
@@ -52,3 +53,18 @@ def test_a_pointed_foots_narrow_toes_are_not_the_ankle():
     assert 150.0 < found.b_mm < 300.0 and abs(found.c_mm - 400.0) < 20.0 and 460.0 < found.d_mm < 600.0
     with pytest.raises(FitFailure):
         find_feature_heights(z, girth)
+
+
+def test_a_calf_whose_crown_rises_over_three_bumps_is_read_at_the_highest():
+    """Three calf maxima over one ankle and one knee waist, each higher than the one below
+    (a calf bulge the scan left ribbed: the profile of a cloud missing a strip along the
+    leg, benchmarks/coverage.py): C is the highest.  The crown merge walked from the
+    highest back down over the lower ones and read an empty stretch of the profile - a
+    ValueError, which the service answered as a 500."""
+    z = np.arange(0.0, 700.0, 2.0)
+    knots = np.array([(0, 300), (100, 220), (200, 330), (260, 362), (285, 358), (310, 367), (335, 363), (360, 372),
+                      (400, 360), (470, 335), (560, 380), (700, 430)], dtype=float)
+    girth = PchipInterpolator(knots[:, 0], knots[:, 1])(z)
+    found = find_feature_heights(z, girth)
+    assert abs(found.c_mm - 360.0) <= 6.0
+    assert abs(found.b_mm - 100.0) <= 10.0 and abs(found.d_mm - 470.0) <= 10.0
