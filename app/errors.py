@@ -95,6 +95,7 @@ FAILURE_TITLES = {
     FailureReason.SCAN_TOO_LARGE: "The scan has more points or triangles than the service accepts",
     FailureReason.IMPLAUSIBLE_SIZE: "The scan is not the size of a leg or a body",
     FailureReason.NOT_A_LEG: "The scan is not a leg",
+    FailureReason.PARTIAL_VIEW: "The scan does not go all round the leg",
     FailureReason.NO_ANKLE: "No ankle in the scanned range",
     FailureReason.NO_KNEE: "No knee in the scanned range",
     FailureReason.SIDE_NOT_FOUND: "The leg cannot be picked out of the body",

@@ -25,6 +25,7 @@ class FailureReason(str, enum.Enum):
     SCAN_TOO_LARGE = "scan_too_large"
     IMPLAUSIBLE_SIZE = "implausible_size"
     NOT_A_LEG = "not_a_leg"
+    PARTIAL_VIEW = "partial_view"
     NO_ANKLE = "no_ankle"
     NO_KNEE = "no_knee"
     NO_CALF = "no_calf"

@@ -384,7 +384,10 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
 
 
 #: how far a candidate got before it failed (higher is more informative)
-FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2}
+#: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
+#: whatever another axis or a bent knee's runs then find or miss is read off a half leg)
+FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2,
+                 FailureReason.PARTIAL_VIEW: 3}
 
 
 def failure_stage(failure: FitFailure) -> float:

@@ -33,6 +33,7 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
 from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.coverage import bridged_arc_warning, open_arcs_failure, without_open_arcs
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 from app.geometry.scan.skin_layers import SkinLayers, skin_layers
@@ -249,6 +250,8 @@ def fit_calf(
         local = local[np.argsort(local[:, 2], kind="stable")]
     heights = _section_heights(b_mm, d_mm, options)
     sections = slice_polar(local, faces, heights, options.n_angles)
+    if faces is not None:
+        sections = without_open_arcs(sections)
     valid = sections.valid
     in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
     density = None if faces is not None else len(in_calf) / max(d_mm - b_mm, 1e-9)  # a cloud's points per mm
@@ -260,19 +263,23 @@ def fit_calf(
     if valid.mean() < 0.9:
         if sparse and density is not None:
             raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
-        raise FitFailure(FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours")
+        raise (open_arcs_failure(sections, "the calf's cross-sections") or FitFailure(
+            FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours"))
     lap("resample")
 
     girth = sections.circumferences()
     b1_mm = b1_height(heights, girth, b_mm, c_mm)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
+    if faces is not None:
+        layer_sections = without_open_arcs(layer_sections)
     if sparse and not layer_sections.valid.all():
         layer_sections = bridge_sections(layer_sections, sections)
     if not layer_sections.valid.all():
         if sparse and density is not None:
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
-        raise FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour")
+        raise (open_arcs_failure(layer_sections, "the calf's feature layers")
+               or FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour"))
     layer_girth = layer_sections.circumferences()
     tape = tape_band_girths(local, band_faces, layers_z[[0, 2, 4, 6]])
     if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
@@ -339,6 +346,12 @@ def fit_calf(
                 f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "
                 f"of {name}'s over that length, so {name}'s girth is sure but its height (and the lengths and layers "
                 "measured from it) is not")
+    # a missing arc of skin at a landmark; not on a sparse cloud, whose slabs leave gaps
+    # wherever its few points fall (the sparse warning above covers its girths)
+    sparse_warned = density is not None and density < SPARSE_CLOUD_POINTS_PER_MM
+    bridged = None if sparse_warned else bridged_arc_warning(sections, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]])))
+    if bridged is not None:
+        fit_warnings.append(bridged)
     if skin.off_skin:
         fit_warnings.append(
             f"the surface {skin.off_skin_text}, so its girths there are not the scan's"

@@ -26,6 +26,7 @@ import numpy as np
 from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, failure_stage, find_feature_heights
 from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.coverage import partial_view
 from app.geometry.placement.knee_bend import keep_index, shank_runs
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
@@ -161,6 +162,8 @@ def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):
         sections.radii_mm[::-1][:, rays],
         sections.angles_rad,
         sections.coverage[::-1],
+        None if sections.largest_gap_deg is None else sections.largest_gap_deg[::-1],
+        None if sections.gap_middle_rad is None else (np.pi - sections.gap_middle_rad[::-1]) % (2.0 * np.pi),
     )
     return -heights[::-1], girth[::-1], mirrored
 
@@ -258,6 +261,9 @@ def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
     centre = points.mean(axis=0)
     local = (points - centre) @ basis.T
     heights, girth, sections = _profile(local, faces, cut_end=_cut_end(half_spaces, centre, axis))
+    one_sided = None if half_spaces else partial_view(sections)  # (a bent knee's cut opens sections by design)
+    if one_sided is not None:  # before the landmarks: a missing arc reads as another shape
+        raise one_sided
     if up is not None:
         feats = find_feature_heights(heights, girth, elongation=sections.elongations())
     else:

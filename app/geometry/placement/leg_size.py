@@ -99,7 +99,8 @@ MAX_BODY_SCAN_MM = 2500.0
 FOOT_GIRTH_MM = (160.0, 450.0)
 #: refusals about the leg's shape that a wrong unit also produces
 SHAPE_REASONS = (FailureReason.NO_ANKLE, FailureReason.NO_KNEE, FailureReason.NO_CALF, FailureReason.NOT_A_LEG,
-                 FailureReason.SIDE_NOT_FOUND, FailureReason.TOO_FEW_POINTS, FailureReason.TOO_SPARSE)
+                 FailureReason.PARTIAL_VIEW, FailureReason.SIDE_NOT_FOUND, FailureReason.TOO_FEW_POINTS,
+                 FailureReason.TOO_SPARSE)
 
 
 def with_unit_hint(failure: FitFailure, extent_mm: float, unit: str, unit_detected: bool) -> FitFailure:

@@ -33,16 +33,16 @@ heights (k,), radii (k, a).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from app.geometry.sections.polar import PolarSections, polygon_centroid, ray_angles
+from app.geometry.sections.polar import MAX_GAP_DEG, PolarSections, largest_gap, polygon_centroid, ray_angles
 
 #: harmonics of the polar Fourier fit (a leg section has no detail finer than ~1/12 turn)
 HARMONICS = 12
 #: bending-energy weight; relative to the data term with all bins filled
 SMOOTHING = 0.5
-#: largest angular gap without points that a section may have, degrees (see docstring)
-MAX_GAP_DEG = 100.0
 #: angular bins of the fit (5 degrees, the paper's ray spacing)
 N_BINS = 72
 #: Tukey biweight tuning constant (95% efficiency at the normal) and robust-sd floor, mm
@@ -109,17 +109,6 @@ def _row_nanmedian(values: np.ndarray) -> np.ndarray:
     lo, hi = np.maximum((n - 1) // 2, 0), np.maximum(n // 2, 0)
     with np.errstate(invalid="ignore"):
         return np.where(n > 0, 0.5 * (ordered[rows, lo] + ordered[rows, hi]), np.nan)
-
-
-def largest_gap_deg(filled: np.ndarray) -> np.ndarray:
-    """Largest run of empty bins, cyclically, in degrees: filled (k, b) bool -> (k,)."""
-    k, b = filled.shape
-    empty = ~np.tile(filled, 2)
-    # run length of empties ending at each position, via the last filled index
-    idx = np.broadcast_to(np.arange(2 * b), (k, 2 * b))
-    last_filled = np.maximum.accumulate(np.where(empty, -1, idx), axis=1)
-    run = np.where(empty, idx - last_filled, 0)
-    return np.minimum(run.max(axis=1), b) * (360.0 / b)
 
 
 def _fourier_design(angles: np.ndarray, harmonics: int) -> np.ndarray:
@@ -213,11 +202,21 @@ def slice_points_polar(
         better = (wider.coverage > sections.coverage[thin]) & np.isfinite(wider.radii_mm).all(axis=1)
         if not better.any():
             continue
-        rows = thin[better]
-        centroids, radii, coverage = sections.centroids_mm.copy(), sections.radii_mm.copy(), sections.coverage.copy()
-        centroids[rows], radii[rows], coverage[rows] = wider.centroids_mm[better], wider.radii_mm[better], wider.coverage[better]
-        sections = PolarSections(heights, centroids, radii, sections.angles_rad, coverage)
+        sections = _with_rows(sections, thin[better], wider, better)
     return sections
+
+
+def _with_rows(sections: PolarSections, rows: np.ndarray, wider: PolarSections, pick: np.ndarray) -> PolarSections:
+    """``sections`` with its ``rows`` (r,) read from ``wider``'s ``pick`` (bool, r true):
+    every per-section array (centre, radii, coverage, the largest gap and where it points)."""
+    taken = {}
+    for name in ("centroids_mm", "radii_mm", "coverage", "largest_gap_deg", "gap_middle_rad"):
+        mine, theirs = getattr(sections, name), getattr(wider, name)
+        if mine is not None and theirs is not None:
+            mine = mine.copy()
+            mine[rows] = theirs[pick]
+            taken[name] = mine
+    return dataclasses.replace(sections, **taken)
 
 
 def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], heights: np.ndarray, n_angles: int,
@@ -236,7 +235,8 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
     within = np.arange(plane.size) - start[plane]  # each point's place in its slab
     rank = lo[plane] + within
     xy = points[order[rank], :2]
-    empty = PolarSections(heights, np.full((k, 2), np.nan), np.full((k, n_angles), np.nan), angles, np.zeros(k))
+    empty = PolarSections(heights, np.full((k, 2), np.nan), np.full((k, n_angles), np.nan), angles, np.zeros(k),
+                          np.full(k, 360.0), np.full(k, np.nan))
     if plane.size == 0:
         return empty
     # every CENTRE_STRIDE-th point of each slab, counted from the slab's own first point:
@@ -247,6 +247,7 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
     design_out = _fourier_design(angles, harmonics)
     radii = np.full((k, n_angles), np.nan)
     coverage = np.zeros(k)
+    gap, middle = np.full(k, 360.0), np.full(k, np.nan)
     ok = np.isfinite(centre).all(axis=1)
     todo = np.flatnonzero(ok)  # sections whose ray origin is still moving
     for step in range(MAX_RECENTRES + 1):  # bin, fit, re-centre on the fitted contour's area centroid
@@ -261,10 +262,11 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
         bin_radius, bin_count = group_median(group * N_BINS + bins, r, len(todo) * N_BINS)
         filled = bin_count.reshape(len(todo), N_BINS) > 0
         coverage[todo] = filled.mean(axis=1)
+        gap[todo], middle[todo] = largest_gap(filled)
         coefficients = robust_polar_fit(bin_radius.reshape(len(todo), N_BINS), harmonics,
                                         CENTRING_IRLS_ITERATIONS if step == 0 else IRLS_ITERATIONS)
         radii[todo] = coefficients @ design_out.T
-        ok[todo] = (largest_gap_deg(filled) <= MAX_GAP_DEG) & (radii[todo] > 0).all(axis=1)
+        ok[todo] = (gap[todo] <= MAX_GAP_DEG) & (radii[todo] > 0).all(axis=1)
         if step == MAX_RECENTRES:
             break
         contour = np.stack([radii[todo] * np.cos(angles), radii[todo] * np.sin(angles)], axis=-1)
@@ -276,4 +278,4 @@ def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], hei
             break
     radii[~ok] = np.nan
     centre[~ok] = np.nan
-    return PolarSections(heights, centre, radii, angles, coverage)
+    return PolarSections(heights, centre, radii, angles, coverage, gap, middle)

@@ -11,7 +11,10 @@ Meshes: every triangle crossing a plane gives one segment (a multi-plane version
 trimesh.intersections.mesh_multiplane); each ray takes the outermost segment it hits,
 so inner shells and folds never shorten the skin contour.  Rays that hit nothing (holes
 in the mesh) are filled by periodic interpolation in the polar domain between the
-nearest hit rays (the paper's "curve fitting in the polar coordinate system").
+nearest hit rays (the paper's "curve fitting in the polar coordinate system"); the
+largest run of such rays is kept (``largest_gap_deg``, where it points): the fit makes a
+section open by more than MAX_GAP_DEG missing, as a cloud's is, and refuses a leg seen
+from one side (app.geometry.placement.coverage).
 
 Point clouds: a robust polar curve fit of each slab of points,
 :mod:`app.geometry.sections.cloud`.
@@ -23,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.geometry.sections.polar import PolarSections, polygon_centroid, ray_angles
+from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, ray_angles
 
 #: a section whose rays hit the contour less often than this is treated as missing
 MIN_RAY_COVERAGE = 0.5
@@ -173,7 +176,8 @@ def slice_mesh_polar(
     plane, seg = mesh_section_segments(vertices, faces, heights)
     centroids = np.full((k, 2), np.nan)
     if plane.size == 0:
-        return PolarSections(heights, centroids, np.full((k, n_angles), np.nan), angles, np.zeros(k))
+        return PolarSections(heights, centroids, np.full((k, n_angles), np.nan), angles, np.zeros(k), np.full(k, 360.0),
+                             np.full(k, np.nan))
 
     length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
     mid = seg.mean(axis=1)
@@ -191,6 +195,6 @@ def slice_mesh_polar(
     coverage = np.isfinite(raw).mean(axis=1)
     centroids[~np.isfinite(radii).all(axis=1)] = np.nan
     radii[~np.isfinite(centroids).all(axis=1)] = np.nan
-    return PolarSections(heights, centroids, radii, angles, coverage)
+    return PolarSections(heights, centroids, radii, angles, coverage, *largest_gap(np.isfinite(raw)))
 
 

@@ -9,6 +9,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+#: the largest arc without skin a section may have and still be measured, degrees (a
+#: cloud's section with a larger one is missing, app.geometry.sections.cloud): a 40 mm
+#: hole spans 40 / r radians, 76 degrees at a 30 mm ankle radius (the smallest ANSUR II
+#: ankle girth, 156 mm, has r = 25 mm: 92 degrees); a section seen over less than 260
+#: degrees is not a scan of that section
+MAX_GAP_DEG = 100.0
 
 @dataclass(frozen=True)
 class PolarSections:
@@ -26,6 +32,12 @@ class PolarSections:
         Ray angles, ``2*pi*j/a``.
     coverage : (k,) float64
         Fraction of rays that hit the contour directly (1.0 for a closed mesh).
+    largest_gap_deg : (k,) float64 or None
+        The largest arc around the section's centre without a ray hit (a mesh) or an
+        angular bin holding points (a cloud), degrees: 360 where the plane has nothing.
+        None where the slicer did not measure it.
+    gap_middle_rad : (k,) float64 or None
+        The angle of that arc's middle (NaN without a gap).
     """
 
     heights_mm: np.ndarray
@@ -33,11 +45,20 @@ class PolarSections:
     radii_mm: np.ndarray
     angles_rad: np.ndarray
     coverage: np.ndarray
+    largest_gap_deg: np.ndarray | None = None
+    gap_middle_rad: np.ndarray | None = None
 
     @property
     def valid(self) -> np.ndarray:
         """(k,) bool: sections with a usable contour."""
         return np.isfinite(self.radii_mm).all(axis=1)
+
+    def open_arcs(self) -> np.ndarray:
+        """(k,) bool: sections holding skin (some coverage) that miss an arc of more than
+        MAX_GAP_DEG of it; False where the slicer did not measure the gaps."""
+        if self.largest_gap_deg is None:
+            return np.zeros(len(self.heights_mm), dtype=bool)
+        return (self.coverage > 0) & (self.largest_gap_deg > MAX_GAP_DEG)
 
     def circumferences(self) -> np.ndarray:
         """(k,) perimeter of each resampled contour (sum of chords, paper section 3.2), mm."""
@@ -70,6 +91,22 @@ class PolarSections:
         root = np.sqrt(np.maximum(half_trace**2 - (cxx * cyy - cxy**2), 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.sqrt((half_trace + root) / (half_trace - root))
+
+
+def largest_gap(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The largest run of empty rays or bins of each row, cyclically: filled (k, b) bool
+    over one turn from angle 0 -> its size in degrees (k,) (360 for a row with nothing)
+    and the angle of its middle in radians (k,) (NaN for a row without a gap)."""
+    k, b = filled.shape
+    empty = ~np.tile(filled, 2)
+    # run length of empties ending at each position, via the last filled index
+    idx = np.broadcast_to(np.arange(2 * b), (k, 2 * b))
+    last_filled = np.maximum.accumulate(np.where(empty, -1, idx), axis=1)
+    run = np.where(empty, idx - last_filled, 0)
+    end = run.argmax(axis=1)
+    length = np.minimum(run[np.arange(k), end], b)
+    middle = np.where(length > 0, (end - (length - 1) / 2.0) * (2.0 * np.pi / b) % (2.0 * np.pi), np.nan)
+    return length * (360.0 / b), middle
 
 
 def ray_angles(n_angles: int) -> np.ndarray:

@@ -1,0 +1,136 @@
+"""Is the leg scanned all round?  A tape girth is the whole circumference; a scan that
+sees the leg from one side (a depth camera's single view, a hand-held pass that never
+went behind the leg) or misses a strip along it holds only an arc of each section, and
+every girth measured from it is a guess.
+
+The coarse profile's sections along the candidate leg (app.geometry.placement.leg_axis)
+each know their largest arc without skin and where it points
+(:attr:`app.geometry.sections.PolarSections.largest_gap_deg`, ``gap_middle_rad``).  The
+leg is refused as ``partial_view``, before any landmark is looked for (a missing arc
+reads as a leg of another shape, and the refusal would name an ankle, calf or knee that
+the scan does hold), when
+
+- at least :data:`ONE_SIDED_SHARE` of its sections holding skin miss more than
+  MAX_GAP_DEG of it, and
+- those arcs point the same way: the mean resultant length of their directions is at
+  least :data:`SAME_DIRECTION` (Rayleigh's test of uniformity on the circle; Mardia &
+  Jupp, Directional Statistics, 6.3.1) - a strip the scanner never saw, not a sparse
+  cloud's gaps scattered round the leg (those are refused as too sparse) - or at least
+  :data:`MOST_SHARE` of the sections are open so, wherever their arcs point (a half
+  leg's sections are arcs whose centres, and so the directions of their gaps, wander;
+  a cloud that sparse is refused as too sparse by app.geometry.placement.place).
+
+Units: degrees, shares.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.sections.polar import MAX_GAP_DEG, PolarSections
+
+#: a strip missing along a quarter of the leg's length: a hole spans a few cm of it (the
+#: corpus's holes, cropped ends and legs cut apart at the crotch open at most 13% of a
+#: leg's sections by more than MAX_GAP_DEG: benchmarks/robustness.py 220 7 and 220 11)
+ONE_SIDED_SHARE = 0.25
+#: mean resultant length of the open arcs' directions: n directions drawn uniformly give
+#: about 1 / sqrt(n) (0.1 for 100 sections; Rayleigh's P(R >= 0.5) ~ exp(-n / 4) for 25 or
+#: more), a strip along the leg close to 1
+SAME_DIRECTION = 0.5
+#: ... or this share, whichever way the arcs point
+MOST_SHARE = 0.75
+#: a landmark's girth is read across a tape's width (app.geometry.sections
+#: TAPE_BAND_OFFSETS_MM, +-4 mm): the calf's sections this close to it count, mm
+BRIDGE_READ_MM = 4.0
+
+
+def partial_view(sections: PolarSections) -> FitFailure | None:
+    """The refusal of a leg seen from one side (module docstring), or None."""
+    held = sections.coverage > 0
+    open_arc = sections.open_arcs()
+    if not held.any() or open_arc[held].mean() < ONE_SIDED_SHARE or sections.gap_middle_rad is None:
+        return None
+    share = float(open_arc[held].mean())
+    same_side = float(np.abs(np.exp(1j * sections.gap_middle_rad[open_arc]).mean())) >= SAME_DIRECTION
+    if not same_side and share < MOST_SHARE:
+        return None
+    assert sections.largest_gap_deg is not None  # open_arcs is all False without it
+    arcs = sections.largest_gap_deg[open_arc]
+    return FitFailure(
+        FailureReason.PARTIAL_VIEW,
+        f"the scan does not go all round the leg: at {share:.0%} of its heights an arc of {np.median(arcs):.0f} "
+        f"degrees (up to {arcs.max():.0f}) {'on the same side of' if same_side else 'around'} the leg holds no skin - "
+        "it was scanned from one side, or a strip along the leg is missing. A tape girth is the whole circumference (a "
+        f"hole is bridged up to {MAX_GAP_DEG:.0f} degrees): scan all round the leg, or merge the scanner's views "
+        "before exporting.")
+
+
+def without_open_arcs(sections: PolarSections) -> PolarSections:
+    """A mesh's ``sections`` with those open by more than MAX_GAP_DEG made missing, as a
+    cloud's are (app.geometry.sections.cloud): the mesh slicer bridges any gap its rays
+    leave while half of them hit, and a bridge over more than MAX_GAP_DEG is a guess at
+    the leg's shape, not a measurement of it (a 100-degree chord under-reads a 60 mm
+    radius arc by 13 mm of girth)."""
+    if sections.largest_gap_deg is None:
+        return sections
+    open_arc = sections.largest_gap_deg > MAX_GAP_DEG
+    if not open_arc.any():
+        return sections
+    return dataclasses.replace(sections, radii_mm=np.where(open_arc[:, None], np.nan, sections.radii_mm),
+                               centroids_mm=np.where(open_arc[:, None], np.nan, sections.centroids_mm))
+
+
+def open_arcs_failure(sections: PolarSections, what: str) -> FitFailure | None:
+    """The refusal of ``what`` (e.g. "the calf's cross-sections") when most of its missing
+    sections hold skin but are open by more than MAX_GAP_DEG - a strip the scanner missed,
+    or a view from one side - or None (then they are missing for another reason)."""
+    if sections.largest_gap_deg is None:
+        return None
+    missing = ~sections.valid
+    open_arc = missing & sections.open_arcs()
+    if not missing.any() or open_arc.sum() * 2 < missing.sum():
+        return None
+    arcs = sections.largest_gap_deg[open_arc]
+    return FitFailure(
+        FailureReason.PARTIAL_VIEW,
+        f"{what} are not whole: at {open_arc.mean():.0%} of them an arc of {np.median(arcs):.0f} degrees (up to "
+        f"{arcs.max():.0f}) around the leg holds no skin - a strip the scanner missed, a large hole, or a view from "
+        f"one side. A tape girth is the whole circumference (a hole is bridged up to {MAX_GAP_DEG:.0f} degrees): scan "
+        "all round the leg, or merge the scanner's views before exporting.")
+
+
+def arc_bridge_bound_mm(radius_mm: np.ndarray, arc_deg: np.ndarray) -> np.ndarray:
+    """How far a girth bridged across a missing arc may be off, mm: a convex section's
+    skin over an arc it misses lies between the chord of the arc and the tangents at its
+    ends, whose lengths differ by 2 r (tan(a/2) - sin(a/2)) on a section of mean radius
+    r (mm) missing a degrees (0.7 mm for 30 degrees at r = 60 mm, 3.8 for 45, 35 for 90).
+    Shapes broadcast."""
+    half = np.radians(np.asarray(arc_deg, dtype=float)) / 2.0
+    return 2.0 * np.asarray(radius_mm, dtype=float) * (np.tan(half) - np.sin(half))
+
+
+def bridged_arc_warning(sections: PolarSections, landmark_heights_mm: dict[str, float]) -> str | None:
+    """The fit's warning when the skin at a landmark (its section and those within
+    BRIDGE_READ_MM of it, the tape's band) misses an arc whose bridge may move the girth
+    by more than an order's tolerance (:func:`arc_bridge_bound_mm` over
+    GIRTH_TOLERANCE_MM), or None.  ``sections``: the calf's, heights (k,) mm."""
+    if sections.largest_gap_deg is None:
+        return None
+    radius = sections.mean_radii()
+    bound = np.where(np.isfinite(radius), arc_bridge_bound_mm(np.nan_to_num(radius), sections.largest_gap_deg), 0.0)
+    named = []
+    for name, height in landmark_heights_mm.items():
+        near = np.abs(sections.heights_mm - height) <= BRIDGE_READ_MM
+        if near.any() and bound[near].max() > GIRTH_TOLERANCE_MM:
+            named.append((name, float(sections.largest_gap_deg[near].max()), float(bound[near].max())))
+    if not named:
+        return None
+    names = ", ".join(n for n, _, _ in named)
+    return (f"the skin at {names} misses an arc of up to {max(a for _, a, _ in named):.0f} degrees around the leg (a "
+            "hole, or a strip the scanner missed): the girth there is bridged across it and may be off by up to "
+            f"{max(b for _, _, b in named):.0f} mm (a convex section's skin lies between the arc's chord and its "
+            "tangents); take it by tape, or scan that side again")

@@ -1,0 +1,122 @@
+"""A leg the scanner did not see all round (app.geometry.placement.coverage): the arcs
+without skin, the refusal of a leg seen from one side, the warning of a bridged arc -
+on synthetic sections and on BodyParts3D's real leg with skin taken away."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.placement.coverage import arc_bridge_bound_mm, partial_view
+from app.geometry.scan.reader import load_scan
+from app.geometry.sections.polar import PolarSections, largest_gap, ray_angles
+from tests.conftest import REAL
+
+
+def test_the_largest_gap_is_the_longest_empty_run_round_the_turn_and_where_it_points():
+    filled = np.ones((4, 72), dtype=bool)
+    filled[0, 10:30] = False  # 20 bins of 5 degrees, middle at bin 19.5
+    filled[1, :5] = False
+    filled[1, 65:] = False  # 12 bins across angle 0 (65 ... 76), middle at bin 70.5
+    filled[1, 30:33] = False  # a shorter run elsewhere
+    filled[3] = False
+    size, middle = largest_gap(filled)
+    assert size.tolist() == [100.0, 60.0, 0.0, 360.0]
+    assert np.degrees(middle[0]) == pytest.approx(97.5)
+    assert np.degrees(middle[1]) == pytest.approx(352.5)
+    assert np.isnan(middle[2])
+
+
+def test_the_bridge_bound_is_the_tangents_less_the_chord_of_a_circles_missing_arc():
+    """On a circle of radius r missing an arc a, the skin over the arc lies between its
+    chord and the tangents at its ends: measured here from the points themselves."""
+    r = 60.0
+    for arc in (30.0, 60.0, 100.0):
+        half = np.radians(arc) / 2
+        ends = r * np.array([[np.cos(-half), np.sin(-half)], [np.cos(half), np.sin(half)]])
+        chord = np.linalg.norm(ends[1] - ends[0])
+        apex = np.array([r / np.cos(half), 0.0])  # where the two tangents meet
+        tangents = np.linalg.norm(apex - ends[0]) + np.linalg.norm(apex - ends[1])
+        assert chord < r * np.radians(arc) < tangents
+        assert arc_bridge_bound_mm(r, arc) == pytest.approx(tangents - chord)
+
+
+def _sections(gaps_deg: np.ndarray, middles_rad: np.ndarray) -> PolarSections:
+    k = len(gaps_deg)
+    return PolarSections(np.arange(k) * 3.0, np.zeros((k, 2)), np.full((k, 36), 50.0), ray_angles(36),
+                         1.0 - gaps_deg / 360.0, gaps_deg, middles_rad)
+
+
+def test_open_sections_on_one_side_are_a_partial_view_and_scattered_ones_are_not():
+    """Half the sections open by 150 degrees: towards one side (a strip the scanner never
+    saw) they are refused; in directions scattered round the leg (a sparse cloud's gaps)
+    they are not, unless nearly every section is open."""
+    rng = np.random.default_rng(3)
+    gaps = np.where(np.arange(100) < 50, 150.0, 20.0)
+    one_side = rng.normal(1.0, 0.3, 100)
+    refused = partial_view(_sections(gaps, one_side))
+    assert refused is not None and refused.reason is FailureReason.PARTIAL_VIEW
+    assert "50% of its heights" in refused.detail and "on the same side" in refused.detail
+    assert partial_view(_sections(gaps, rng.uniform(0, 2 * np.pi, 100))) is None
+    assert partial_view(_sections(np.full(100, 150.0), rng.uniform(0, 2 * np.pi, 100))) is not None
+    assert partial_view(_sections(np.where(np.arange(100) < 20, 150.0, 20.0), one_side)) is None  # holes, a cut end
+
+
+@pytest.fixture(scope="module")
+def leg() -> trimesh.Trimesh:
+    return trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+
+
+def _angle_round_the_leg(points: np.ndarray) -> np.ndarray:
+    """Degrees of each point round its 10 mm slab's centroid (the leg stands along z)."""
+    slab = np.floor((points[:, 2] - points[:, 2].min()) / 10.0).astype(np.int64)
+    count = np.bincount(slab)
+    centre = np.stack([np.bincount(slab, points[:, i]) / count for i in range(2)], axis=1)[slab]
+    return np.degrees(np.arctan2(points[:, 1] - centre[:, 1], points[:, 0] - centre[:, 0]))
+
+
+def _without(leg: trimesh.Trimesh, gone, as_cloud: bool):
+    """The leg without the skin where ``gone(points)`` (n,) bool: a mesh without the
+    triangles touching it, or a scanner's dense cloud (60,000 points on the surface)."""
+    if as_cloud:
+        points, _ = trimesh.sample.sample_surface(leg, 60_000, seed=5)
+        return load_scan(trimesh.PointCloud(points[~gone(points)]).export(file_type="ply"), file_type="ply")
+    gone = gone(leg.vertices)
+    kept = leg.copy()
+    kept.update_faces(~gone[kept.faces].any(axis=1))
+    kept.remove_unreferenced_vertices()
+    return load_scan(kept.export(file_type="stl"), file_type="stl")
+
+
+@pytest.mark.parametrize("as_cloud", [False, True])
+def test_a_leg_seen_from_one_side_is_refused_as_a_partial_view(leg, as_cloud):
+    """One camera's view (the skin whose normal faces it), as a mesh and as its vertices:
+    refused for what it is, not as a leg without ankle or knee."""
+    facing = leg.vertex_normals @ np.array([0.0, 1.0, 0.0]) > 0.17  # by more than 10 degrees
+    scan = _without(leg, lambda p: ~facing[leg.kdtree.query(p)[1]], as_cloud)
+    with pytest.raises(FitFailure) as caught:
+        check_scan(scan, FitOptions(side="right"))
+    assert caught.value.reason is FailureReason.PARTIAL_VIEW, caught.value.detail
+    assert "does not go all round the leg" in caught.value.detail
+
+
+@pytest.mark.parametrize("as_cloud", [False, True])
+def test_a_strip_missing_along_the_leg_is_bridged_with_a_warning_the_whole_leg_has_none(leg, as_cloud):
+    """A 60-degree strip along the whole leg (a scanner's blind side): the girths are
+    read across it and the record says they may be off by the bridge's bound; the whole
+    leg says nothing of the kind."""
+    options = FitOptions(side="right")
+    whole = _without(leg, lambda p: np.zeros(len(p), dtype=bool), as_cloud)
+    fit = fit_scan(whole, options, placement=check_scan(whole, options))
+    assert not any("misses an arc" in w for w in fit.warnings)
+    scan = _without(leg, lambda p: np.abs(_angle_round_the_leg(p) - 45.0) < 30.0, as_cloud)
+    try:
+        stripped = fit_scan(scan, options, placement=check_scan(scan, options))
+    except FitFailure as failure:  # a strip the calf's sections cannot be closed over
+        assert failure.reason is FailureReason.PARTIAL_VIEW, failure.detail
+        return
+    said = [w for w in stripped.warnings if "misses an arc" in w]
+    assert said and "take it by tape" in said[0]
