@@ -40,6 +40,10 @@ class Landmark(BaseModel):
     height_tolerance_mm: float | None = Field(
         None, ge=0, le=10 * MAX_CONTROL_MM, description="heights within this distance of the landmark have a girth a "
         "tape cannot tell from its own: how sharply the profile places it (absent in records fitted before 2026-12)")
+    girth_uncertainty_mm: float | None = Field(
+        None, ge=0, le=10 * MAX_CONTROL_MM, description="how far tape_girth_mm may be off where the scan misses an arc "
+        "of the skin at this height (a hole, a strip the scanner missed): the gap between the arc's chord and its "
+        "tangents; present only beyond an order's 3 mm (then a warning says so)")
     confidence: Literal["high", "medium", "low"] | None = Field(
         None, description="high: tolerance <= 10 mm; medium: <= 25 mm; low: beyond, or taken at the scan's or its "
         "search window's edge (then a warning says why)")

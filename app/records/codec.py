@@ -14,7 +14,8 @@ JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")
               in the scan, is the calf-frame z of its lowest point (the floor under a
               standing person; heights above the floor are height_mm - sole_mm)
     landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge,
-              height_tolerance_mm, confidence}}
+              height_tolerance_mm, confidence, girth_uncertainty_mm (only where the scan
+              misses an arc of skin there whose bridge may move the girth over 3 mm)}}
               (calf-frame z; B = 0).  circumference_mm is the perimeter of the section
               (72 rays, the paper's 3.2), tape_girth_mm the perimeter of its convex hull
               (what a tape reads: ANSUR, RAL-GZ 387), at_scan_edge: the scan stops there
@@ -332,6 +333,14 @@ def parse_record(data: dict) -> CalfRecord:
             if not math.isfinite(tolerance) or tolerance < 0:
                 raise _invalid(f"landmarks.{name}.height_tolerance_mm must be finite and not negative")
             clean_landmarks[name]["height_tolerance_mm"] = tolerance
+        if entry.get("girth_uncertainty_mm") is not None:
+            try:
+                uncertainty = float(entry["girth_uncertainty_mm"])
+            except (TypeError, ValueError) as exc:
+                raise _invalid(f"landmarks.{name}.girth_uncertainty_mm must be a number") from exc
+            if not math.isfinite(uncertainty) or uncertainty < 0:
+                raise _invalid(f"landmarks.{name}.girth_uncertainty_mm must be finite and not negative")
+            clean_landmarks[name]["girth_uncertainty_mm"] = uncertainty
         if entry.get("confidence") is not None:
             if entry["confidence"] not in ("high", "medium", "low"):
                 raise _invalid(f"landmarks.{name}.confidence must be 'high', 'medium' or 'low'")

@@ -50,6 +50,10 @@ class Landmarks:
     d_at_scan_edge: bool = False  # the scan ends at (or just below) the knee waist
     tape_girths_mm: dict | None = None  # name -> convex-hull (tape) girth of the section, mm
     tolerances_mm: dict | None = None  # name -> height tolerance (:func:`height_tolerances`), mm
+    #: name -> how far the tape girth may be off where the scan misses an arc of the skin
+    #: there, mm (app.geometry.placement.coverage.bridged_arcs; only those beyond an
+    #: order's 3 mm)
+    girth_uncertainties_mm: dict | None = None
 
     def at_edge(self, name: str) -> bool:
         """Was the landmark taken at the scan's edge (B, D) or its window's edge (D)?"""
@@ -76,6 +80,8 @@ class Landmarks:
             if self.tolerances_mm:
                 entry["height_tolerance_mm"] = self.tolerances_mm[name]
                 entry["confidence"] = self.confidence(name)
+            if self.girth_uncertainties_mm and name in self.girth_uncertainties_mm:
+                entry["girth_uncertainty_mm"] = self.girth_uncertainties_mm[name]
             out[name] = entry
         return out
 

@@ -33,12 +33,13 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
 from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
-from app.geometry.placement.coverage import bridged_arc_warning, open_arcs_failure, without_open_arcs
+from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, open_arcs_failure, without_open_arcs
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 from app.geometry.scan.skin_layers import SkinLayers, skin_layers
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
+from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import SurfaceError, error_statistics
 from app.geometry.spline.lsq import LsqFit, LsqGrid, fit_lsq_surface
 from app.geometry.spline.nurbs import NurbsSurface, surface_from_layers
@@ -115,36 +116,6 @@ def _too_sparse(what: str, covered: float, density: float, closed: float) -> Fit
         f"{closed:.0%} of the sections could be closed (90% are needed); a cloud needs about "
         f"{MIN_CLOUD_POINTS_PER_MM:g} point per mm of the leg's height, {MIN_CLOUD_POINTS_PER_MM * 20:.0f} in each "
         "slab, spread round the leg: export the scan denser, or as a mesh")
-
-
-#: a cloud's calf section or feature layer whose own slab cannot be closed is
-#: interpolated from the closed calf sections at most this far above and below it, mm:
-#: the reach of a sparse cloud's slab (app.geometry.sections.cloud.MAX_HALF_MM), over
-#: which a leg's section changes smoothly (girth slope at most ~1 mm per mm)
-LAYER_BRIDGE_MM = 10.0
-
-
-def bridge_sections(layers: PolarSections, sections: PolarSections) -> PolarSections:
-    """``layers`` with each missing row linearly interpolated (centroid and radii on the
-    shared rays) between the nearest closed rows of ``sections`` below and above it,
-    when both lie within :data:`LAYER_BRIDGE_MM`; other rows as they are.  Both (k, a)
-    on the same ``a`` rays, heights in mm (``layers`` may be ``sections`` itself)."""
-    radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
-    closed = np.flatnonzero(sections.valid)
-    z = sections.heights_mm[closed]
-    for row in np.flatnonzero(~layers.valid):  # the few open rows
-        h = layers.heights_mm[row]
-        below, above = closed[z <= h], closed[z >= h]
-        if not below.size or not above.size:
-            continue
-        lo, hi = below[-1], above[0]
-        z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
-        if h - z_lo > LAYER_BRIDGE_MM or z_hi - h > LAYER_BRIDGE_MM:
-            continue
-        t = 0.0 if z_hi == z_lo else (h - z_lo) / (z_hi - z_lo)
-        radii[row] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
-        centres[row] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
-    return dataclasses.replace(layers, radii_mm=radii, centroids_mm=centres)
 
 
 def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
@@ -285,6 +256,10 @@ def fit_calf(
     if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
         fallback = layer_sections.tape_perimeters()[[0, 2, 4, 6]]
         tape = np.where(np.isfinite(tape), tape, fallback)
+    # a missing arc of skin at a landmark; not on a sparse cloud, whose slabs leave gaps
+    # wherever its few points fall (its own warning, below, covers its girths)
+    sparse_warned = density is not None and density < SPARSE_CLOUD_POINTS_PER_MM
+    arcs = {} if sparse_warned else bridged_arcs(sections, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]])))
     landmarks = Landmarks(
         B=Landmark(float(layers_z[0]), float(layer_girth[0])),
         B1=Landmark(float(layers_z[2]), float(layer_girth[2])),
@@ -296,6 +271,7 @@ def fit_calf(
         d_at_scan_edge=edges[1],
         tape_girths_mm={name: float(g) for name, g in zip(("B", "B1", "C", "D"), tape)},
         tolerances_mm=height_tolerances(heights, girth, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]]))),
+        girth_uncertainties_mm={name: bound for name, (_, bound) in arcs.items()} or None,
     )
     lap("landmarks")
 
@@ -332,7 +308,7 @@ def fit_calf(
     error, _, _ = error_statistics(surface, local[in_calf], heights[valid], sections.mean_radii()[valid], layers_z)
     skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
     fit_warnings = []
-    if density is not None and density < SPARSE_CLOUD_POINTS_PER_MM:
+    if sparse_warned:
         fit_warnings.append(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
             "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
@@ -346,10 +322,7 @@ def fit_calf(
                 f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "
                 f"of {name}'s over that length, so {name}'s girth is sure but its height (and the lengths and layers "
                 "measured from it) is not")
-    # a missing arc of skin at a landmark; not on a sparse cloud, whose slabs leave gaps
-    # wherever its few points fall (the sparse warning above covers its girths)
-    sparse_warned = density is not None and density < SPARSE_CLOUD_POINTS_PER_MM
-    bridged = None if sparse_warned else bridged_arc_warning(sections, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]])))
+    bridged = bridged_arc_warning(arcs)
     if bridged is not None:
         fit_warnings.append(bridged)
     if skin.off_skin:

@@ -300,7 +300,8 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         thigh=thigh,
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
-        uncertain_inputs=_uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin)
+        uncertain_inputs=_uncertain_landmarks(landmarks)
+        + _uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin)
         + _doubled_skin(skin_layers),
     )
 
@@ -325,6 +326,16 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
         return ()
     return (f"{layers.doubled_text}; the stocking is knitted from these girths: take B, C and D by tape before "
             "ordering",)
+
+
+def _uncertain_landmarks(landmarks: dict) -> tuple[str, ...]:
+    """A sentence for each of B, B1, C, D whose tape girth the record says may be off
+    (its ``girth_uncertainty_mm``: the scan misses an arc of the skin there,
+    app.geometry.placement.coverage): the stocking's pressure there is graded from it."""
+    return tuple(f"c{name} may be off by up to {uncertainty:.0f} mm (the scan misses an arc of the skin there; the "
+                 f"record's warnings say where): take c{name} by tape (RAL-GZ 387) before knitting"
+                 for name in LANDMARK_NAMES
+                 if (uncertainty := (landmarks.get(name) or {}).get("girth_uncertainty_mm")) is not None)
 
 
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:

@@ -79,7 +79,8 @@ class MeasuredPoint:
     reason: str | None = None
     at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's and thigh's points), calf frame
     #: how far a girth may be off where the scan leaves its place uncertain (the chart's
-    #: uncertainty_mm: a knee without a level crown, a smooth gluteal fold), mm
+    #: uncertainty_mm: a knee without a level crown, a smooth gluteal fold) or misses an
+    #: arc of its skin (a calf landmark's girth_uncertainty_mm), mm
     uncertainty_mm: float | None = None
 
 
@@ -138,7 +139,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
                                               needed, measured_foot.get("reason"), where))
         elif entry is not None and point.kind == "circumference":
             girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
-            measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed))
+            measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed,
+                                          uncertainty_mm=entry.get("girth_uncertainty_mm")))
         elif entry is not None and sole_mm is not None:
             measured.append(MeasuredPoint(point, float(entry["height_mm"]) - float(sole_mm), float(entry["height_mm"]), needed))
         elif entry is not None:

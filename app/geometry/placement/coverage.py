@@ -113,24 +113,29 @@ def arc_bridge_bound_mm(radius_mm: np.ndarray, arc_deg: np.ndarray) -> np.ndarra
     return 2.0 * np.asarray(radius_mm, dtype=float) * (np.tan(half) - np.sin(half))
 
 
-def bridged_arc_warning(sections: PolarSections, landmark_heights_mm: dict[str, float]) -> str | None:
-    """The fit's warning when the skin at a landmark (its section and those within
-    BRIDGE_READ_MM of it, the tape's band) misses an arc whose bridge may move the girth
-    by more than an order's tolerance (:func:`arc_bridge_bound_mm` over
-    GIRTH_TOLERANCE_MM), or None.  ``sections``: the calf's, heights (k,) mm."""
+def bridged_arcs(sections: PolarSections, landmark_heights_mm: dict[str, float]) -> dict[str, tuple[float, float]]:
+    """name -> (the arc missed, degrees; how far the girth may be off, mm) of each
+    landmark whose skin (its section and those within BRIDGE_READ_MM of it, the tape's
+    band) misses an arc whose bridge may move the girth by more than an order's tolerance
+    (:func:`arc_bridge_bound_mm` over GIRTH_TOLERANCE_MM).  ``sections``: the calf's,
+    heights (k,) mm; none without gaps measured."""
     if sections.largest_gap_deg is None:
-        return None
+        return {}
     radius = sections.mean_radii()
     bound = np.where(np.isfinite(radius), arc_bridge_bound_mm(np.nan_to_num(radius), sections.largest_gap_deg), 0.0)
-    named = []
+    out = {}
     for name, height in landmark_heights_mm.items():
         near = np.abs(sections.heights_mm - height) <= BRIDGE_READ_MM
         if near.any() and bound[near].max() > GIRTH_TOLERANCE_MM:
-            named.append((name, float(sections.largest_gap_deg[near].max()), float(bound[near].max())))
-    if not named:
+            out[name] = (float(sections.largest_gap_deg[near].max()), float(bound[near].max()))
+    return out
+
+
+def bridged_arc_warning(arcs: dict[str, tuple[float, float]]) -> str | None:
+    """The fit's warning for :func:`bridged_arcs`' landmarks, or None."""
+    if not arcs:
         return None
-    names = ", ".join(n for n, _, _ in named)
-    return (f"the skin at {names} misses an arc of up to {max(a for _, a, _ in named):.0f} degrees around the leg (a "
-            "hole, or a strip the scanner missed): the girth there is bridged across it and may be off by up to "
-            f"{max(b for _, _, b in named):.0f} mm (a convex section's skin lies between the arc's chord and its "
-            "tangents); take it by tape, or scan that side again")
+    return (f"the skin at {', '.join(arcs)} misses an arc of up to {max(a for a, _ in arcs.values()):.0f} degrees "
+            "around the leg (a hole, or a strip the scanner missed): the girth there is bridged across it and may be "
+            f"off by up to {max(b for _, b in arcs.values()):.0f} mm (a convex section's skin lies between the arc's "
+            "chord and its tangents); take it by tape, or scan that side again")

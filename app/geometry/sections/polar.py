@@ -1,10 +1,12 @@
 """Polar sections: :class:`PolarSections` (radii on rays from each section's centroid,
 paper section 2.1, Figure 2) and the plane geometry of such contours (ray angles,
-perimeter, area centroid).  Units: mm.
+perimeter, area centroid, the largest arc without skin, a missing section bridged from its
+neighbours).  Units: mm.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,6 +93,36 @@ class PolarSections:
         root = np.sqrt(np.maximum(half_trace**2 - (cxx * cyy - cxy**2), 0.0))
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.sqrt((half_trace + root) / (half_trace - root))
+
+
+#: a cloud's calf section or feature layer whose own slab cannot be closed is
+#: interpolated from the closed calf sections at most this far above and below it, mm:
+#: the reach of a sparse cloud's slab (app.geometry.sections.cloud.MAX_HALF_MM), over
+#: which a leg's section changes smoothly (girth slope at most ~1 mm per mm)
+LAYER_BRIDGE_MM = 10.0
+
+
+def bridge_sections(layers: PolarSections, sections: PolarSections) -> PolarSections:
+    """``layers`` with each missing row linearly interpolated (centroid and radii on the
+    shared rays) between the nearest closed rows of ``sections`` below and above it,
+    when both lie within :data:`LAYER_BRIDGE_MM`; other rows as they are.  Both (k, a)
+    on the same ``a`` rays, heights in mm (``layers`` may be ``sections`` itself)."""
+    radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
+    closed = np.flatnonzero(sections.valid)
+    z = sections.heights_mm[closed]
+    for row in np.flatnonzero(~layers.valid):  # the few open rows
+        h = layers.heights_mm[row]
+        below, above = closed[z <= h], closed[z >= h]
+        if not below.size or not above.size:
+            continue
+        lo, hi = below[-1], above[0]
+        z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
+        if h - z_lo > LAYER_BRIDGE_MM or z_hi - h > LAYER_BRIDGE_MM:
+            continue
+        t = 0.0 if z_hi == z_lo else (h - z_lo) / (z_hi - z_lo)
+        radii[row] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
+        centres[row] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
+    return dataclasses.replace(layers, radii_mm=radii, centroids_mm=centres)
 
 
 def largest_gap(filled: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,13 @@ import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.garment.design import DesignInputs, design_stocking
+from app.geometry.garment.fabric import Fabric
+from app.geometry.garment.measuring_points import chart_of_record
 from app.geometry.placement.coverage import arc_bridge_bound_mm, partial_view
 from app.geometry.scan.reader import load_scan
 from app.geometry.sections.polar import PolarSections, largest_gap, ray_angles
+from app.records.codec import record_from_fit
 from tests.conftest import REAL
 
 
@@ -120,3 +124,19 @@ def test_a_strip_missing_along_the_leg_is_bridged_with_a_warning_the_whole_leg_h
         return
     said = [w for w in stripped.warnings if "misses an arc" in w]
     assert said and "take it by tape" in said[0]
+    # the record keeps each bridged girth's bound; the chart states it and the design
+    # from it is for review, asking for those girths by tape
+    record = record_from_fit(stripped, scan.source_format, scan.units)
+    bounds = {name: entry["girth_uncertainty_mm"] for name, entry in record.landmarks.items()
+              if "girth_uncertainty_mm" in entry}
+    assert bounds and all(bound > 3.0 for bound in bounds.values())
+    chart = {m.point.name: m for m in chart_of_record(record.landmarks, record.scan.get("sole_mm"), "AD", record.chart)}
+    assert all(chart[f"c{name}"].uncertainty_mm == bound for name, bound in bounds.items())
+    design = design_stocking(record.surface, record.landmarks, "right",
+                             DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
+                             record.fit["surface_to_scan"])
+    verdict, reasons = design.verdict
+    assert verdict in ("review", "fail")
+    assert {f"c{name}" for name in bounds} <= {r.split()[0] for r in reasons if "misses an arc" in r}
+    whole_record = record_from_fit(fit, whole.source_format, whole.units)
+    assert not any("girth_uncertainty_mm" in entry for entry in whole_record.landmarks.values())
