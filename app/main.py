@@ -19,6 +19,7 @@ from app.db.session import engine_for, session_factory
 from app.jobs.runner import EmbeddedRunner
 from app.metrics import Metrics
 from app.services.fair_share import CheckGate
+from app.services.health import wait_for_database
 from app.services.rate_limits import RateLimiter
 from app.services.storage import ScanStore
 from app.settings import Settings, get_settings
@@ -80,6 +81,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
                                           max_attempts=settings.job_max_attempts, enqueue=_broker_send(settings),
                                           worker_memory_bytes=settings.worker_memory_bytes,
                                           fits_per_tenant=settings.fits_per_tenant)
+        await asyncio.to_thread(wait_for_database, app.state.sessions, settings.db_wait_s)
         removed = app.state.store.clean_temp(TEMP_MAX_AGE_S)
         if removed:
             log.warning("removed %d temporary upload file(s) left by an interrupted process", removed)

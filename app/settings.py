@@ -81,6 +81,9 @@ class Settings(BaseSettings):
     validation_timeout_s: float = Field(60.0, gt=0)
     job_timeout_s: float = Field(600.0, gt=0)
     job_lease_s: float = Field(60.0, ge=1.0)
+    #: how long the service waits at start for its database to answer (a database
+    #: server started beside it may not resolve or accept connections yet), s
+    db_wait_s: float = Field(30.0, ge=0.0)
     broker_url: str | None = None
     broker_heartbeat_s: float = Field(60.0, ge=1.0)
     broker_namespace: str = "calf-nurbs"
