@@ -49,6 +49,12 @@ def _cut(keep) -> bytes:
     return _mesh_bytes(trimesh.Trimesh(leg.vertices, leg.faces[keep(leg.triangles_center)]))
 
 
+def _one_view() -> bytes:
+    """The leg as one depth camera sees it: the triangles facing the camera (+y)."""
+    leg = trimesh.load(REAL / "bodyparts3d_right_leg.stl")
+    return _mesh_bytes(trimesh.Trimesh(leg.vertices, leg.faces[leg.face_normals[:, 1] > 0.17]))
+
+
 CASES = {
     "empty body": (dict(content=b"", headers={"Content-Type": "model/stl"}), 400, "empty_body"),
     "truncated STL": (dict(content=LEG[: len(LEG) // 3], headers={"Content-Type": "model/stl"}), 422, "truncated_file"),
@@ -59,6 +65,7 @@ CASES = {
     "a cube": (dict(content=_mesh_bytes(trimesh.creation.box(extents=(300, 300, 300)).subdivide_to_size(25)), headers={"Content-Type": "model/stl"}), 422, "not_a_leg"),
     "a sphere": (dict(content=_mesh_bytes(trimesh.creation.icosphere(subdivisions=5, radius=150)), headers={"Content-Type": "model/stl"}), 422, "not_a_leg"),
     "a scan cut above the ankle": (dict(content=_cut(lambda c: (c[:, 2] > 170) & (c[:, 2] < 480)), headers={"Content-Type": "model/stl"}), 422, "no_ankle"),
+    "a leg seen from one side": (dict(content=_one_view(), headers={"Content-Type": "model/stl"}), 422, "partial_view"),
     "a scan cut below the knee": (dict(content=_cut(lambda c: c[:, 2] < 335), headers={"Content-Type": "model/stl"}), 422, "no_knee"),
     "bad side option": (dict(content=b"solid x", params={"side": "middle"}, headers={"Content-Type": "model/stl"}), 422, "invalid_request"),
     "bad side form field": (dict(files={"file": ("leg.stl", b"solid x", "model/stl")}, data={"side": "middle"}), 422, "invalid_option"),
