@@ -220,6 +220,8 @@ def fit_calf(
     else:  # a cloud is sliced three times below: sorted along z once, each sort is then a pass
         local = local[np.argsort(local[:, 2], kind="stable")]
     heights = _section_heights(b_mm, d_mm, options)
+    cut_at_knee = placement is not None and bool(placement.half_spaces)  # a bent knee's cut opens sections too
+
     sections = slice_polar(local, faces, heights, options.n_angles)
     if faces is not None:
         sections = without_open_arcs(sections)
@@ -234,7 +236,7 @@ def fit_calf(
     if valid.mean() < 0.9:
         if sparse and density is not None:
             raise _too_sparse("the calf's cross-sections", covered, density, valid.mean())
-        raise (open_arcs_failure(sections, "the calf's cross-sections") or FitFailure(
+        raise (open_arcs_failure(sections, "the calf's cross-sections", cut_at_knee) or FitFailure(
             FailureReason.NOT_A_LEG, f"only {valid.mean():.0%} of the calf's cross-sections are closed contours"))
     lap("resample")
 
@@ -249,7 +251,7 @@ def fit_calf(
     if not layer_sections.valid.all():
         if sparse and density is not None:
             raise _too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
-        raise (open_arcs_failure(layer_sections, "the calf's feature layers")
+        raise (open_arcs_failure(layer_sections, "the calf's feature layers", cut_at_knee)
                or FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour"))
     layer_girth = layer_sections.circumferences()
     tape = tape_band_girths(local, band_faces, layers_z[[0, 2, 4, 6]])

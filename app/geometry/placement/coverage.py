@@ -84,11 +84,14 @@ def without_open_arcs(sections: PolarSections) -> PolarSections:
                                centroids_mm=np.where(open_arc[:, None], np.nan, sections.centroids_mm))
 
 
-def open_arcs_failure(sections: PolarSections, what: str) -> FitFailure | None:
+def open_arcs_failure(sections: PolarSections, what: str, cut_at_knee: bool = False) -> FitFailure | None:
     """The refusal of ``what`` (e.g. "the calf's cross-sections") when most of its missing
     sections hold skin but are open by more than MAX_GAP_DEG - a strip the scanner missed,
-    or a view from one side - or None (then they are missing for another reason)."""
-    if sections.largest_gap_deg is None:
+    or a view from one side - or None (then they are missing for another reason).  None
+    too on a shank ``cut_at_knee`` (free of a bent knee's thigh): the cut opens sections
+    near it, and a refusal asking to scan all round would send the clinic the wrong way
+    (the corpus's seated legs: benchmarks/robustness.py 220 11, seated-02)."""
+    if sections.largest_gap_deg is None or cut_at_knee:
         return None
     missing = ~sections.valid
     open_arc = missing & sections.open_arcs()
@@ -98,9 +101,10 @@ def open_arcs_failure(sections: PolarSections, what: str) -> FitFailure | None:
     return FitFailure(
         FailureReason.PARTIAL_VIEW,
         f"{what} are not whole: at {open_arc.mean():.0%} of them an arc of {np.median(arcs):.0f} degrees (up to "
-        f"{arcs.max():.0f}) around the leg holds no skin - a strip the scanner missed, a large hole, or a view from "
-        f"one side. A tape girth is the whole circumference (a hole is bridged up to {MAX_GAP_DEG:.0f} degrees): scan "
-        "all round the leg, or merge the scanner's views before exporting.")
+        f"{arcs.max():.0f}) around the leg holds no skin - a strip the scanner missed, a large hole, a view from "
+        "one side, or the back of the calf hidden by a knee bent onto it. A tape girth is the whole circumference (a "
+        f"hole is bridged up to {MAX_GAP_DEG:.0f} degrees): scan all round the leg, standing or with the knee "
+        "straight, or merge the scanner's views before exporting.")
 
 
 def arc_bridge_bound_mm(radius_mm: np.ndarray, arc_deg: np.ndarray) -> np.ndarray:
