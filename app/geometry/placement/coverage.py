@@ -111,7 +111,7 @@ def arc_bridge_bound_mm(radius_mm: np.ndarray, arc_deg: np.ndarray) -> np.ndarra
     """How far a girth bridged across a missing arc may be off, mm: a convex section's
     skin over an arc it misses lies between the chord of the arc and the tangents at its
     ends, whose lengths differ by 2 r (tan(a/2) - sin(a/2)) on a section of mean radius
-    r (mm) missing a degrees (0.7 mm for 30 degrees at r = 60 mm, 3.8 for 45, 35 for 90).
+    r (mm) missing a degrees (1.1 mm for 30 degrees at r = 60 mm, 3.8 for 45, 35 for 90).
     Shapes broadcast."""
     half = np.radians(np.asarray(arc_deg, dtype=float)) / 2.0
     return 2.0 * np.asarray(radius_mm, dtype=float) * (np.tan(half) - np.sin(half))
