@@ -39,7 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.corpus import degrade  # noqa: E402
 from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
-from benchmarks.motion import as_cloud, clean_leg, read  # noqa: E402
+from benchmarks.motion import as_cloud, clean_leg, kind_summary, read  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 GIRTHS = ("cB", "cB1", "cC", "cD")
@@ -163,16 +163,9 @@ def write(summary: dict) -> None:
                     and (band is None or band[0] <= (_strip_width(r) or 0) < band[1])]
             if not rows:
                 continue
-            outcomes: dict[str, int] = {}
-            for r in rows:
-                outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
-            errors = np.abs([e for r in rows for e in r["errors"].values()])
-            off = [r for r in rows if r["errors"] and max(abs(e) for e in r["errors"].values()) > OFF_MM]
-            stats = (f"{np.median(errors):.2f} / {np.percentile(errors, 95):.2f} / {errors.max():.2f}"
-                     if errors.size else "-")
-            lines.append(f"| {kind} | {'-' if band is None else f'{band[0]}-{band[1]}'} | {len(rows)} | "
-                         + ", ".join(f"{k} {v}" for k, v in outcomes.items())
-                         + f" | {stats} | {len(off)} | {sum(bool(r['said']) for r in off)} | "
+            outcomes, stats, off = kind_summary(rows, OFF_MM)
+            lines.append(f"| {kind} | {'-' if band is None else f'{band[0]}-{band[1]}'} | {len(rows)} | {outcomes}"
+                         f" | {stats} | {len(off)} | {sum(bool(r['said']) for r in off)} | "
                          f"{sum(r['right'] for r in rows)} of {len(rows)} |")
     wrong = [r for r in summary["rows"] if not r["right"]]
     lines += ["", f"Answered wrong ({len(wrong)}):", ""]

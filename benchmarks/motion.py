@@ -25,6 +25,7 @@ point that far off (its own or the clean scan's) that covers the difference.
 
 from __future__ import annotations
 
+import collections
 import io
 import json
 import sys
@@ -140,6 +141,18 @@ def main(legs: int = 20, seed: int = 17) -> dict:
     return summary
 
 
+def kind_summary(rows: list[dict], off_mm: float) -> tuple[str, str, list[dict]]:
+    """A table row's reading of ``rows`` (each {"outcome", "errors": {girth: mm}}): the
+    outcomes in words ("fit 18, no_knee 2", in order of first appearance), the girth
+    errors' |p50| / p95 / max in mm ("-" without any), and the rows more than ``off_mm``
+    off (benchmarks/coverage.py reads its rows the same way)."""
+    outcomes = collections.Counter(r["outcome"] for r in rows)
+    errors = np.abs([e for r in rows for e in r["errors"].values()])
+    off = [r for r in rows if r["errors"] and max(abs(e) for e in r["errors"].values()) > off_mm]
+    stats = f"{np.median(errors):.2f} / {np.percentile(errors, 95):.2f} / {errors.max():.2f}" if errors.size else "-"
+    return ", ".join(f"{k} {v}" for k, v in outcomes.items()), stats, off
+
+
 def write(summary: dict) -> None:
     lines = [
         "# One leg scanned twice, or moving while scanned (benchmarks/motion.py)",
@@ -154,15 +167,8 @@ def write(summary: dict) -> None:
     ]
     for kind, (low, high) in KINDS.items():
         rows = [r for r in summary["rows"] if r["kind"] == kind]
-        outcomes: dict[str, int] = {}
-        for r in rows:
-            outcomes[r["outcome"]] = outcomes.get(r["outcome"], 0) + 1
-        errors = np.abs([e for r in rows for e in r["errors"].values()])
-        off = [r for r in rows if r["errors"] and max(abs(e) for e in r["errors"].values()) > OFF_MM]
-        stats = (f"{np.median(errors):.2f} / {np.percentile(errors, 95):.2f} / {errors.max():.2f}"
-                 if errors.size else "-")
-        lines.append(f"| {kind} | {low:g}-{high:g} | " + ", ".join(f"{k} {v}" for k, v in outcomes.items())
-                     + f" | {stats} | {sum(bool(r['said']) for r in rows)} | {len(off)} | "
+        outcomes, stats, off = kind_summary(rows, OFF_MM)
+        lines.append(f"| {kind} | {low:g}-{high:g} | {outcomes} | {stats} | {sum(bool(r['said']) for r in rows)} | {len(off)} | "
                      f"{sum(bool(r['said']) for r in off)} | {sum(not r['unstated'] for r in off)} |")
     lines += ["", "Per scan:", "", "| leg | kind | move mm | outcome | largest girth error mm | said |", "|---|---|---|---|---|---|"]
     for r in summary["rows"]:

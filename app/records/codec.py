@@ -325,22 +325,15 @@ def parse_record(data: dict) -> CalfRecord:
             clean_landmarks[name]["tape_girth_mm"] = tape
         if "at_scan_edge" in entry:
             clean_landmarks[name]["at_scan_edge"] = bool(entry["at_scan_edge"])
-        if entry.get("height_tolerance_mm") is not None:
-            try:
-                tolerance = float(entry["height_tolerance_mm"])
-            except (TypeError, ValueError) as exc:
-                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be a number") from exc
-            if not math.isfinite(tolerance) or tolerance < 0:
-                raise _invalid(f"landmarks.{name}.height_tolerance_mm must be finite and not negative")
-            clean_landmarks[name]["height_tolerance_mm"] = tolerance
-        if entry.get("girth_uncertainty_mm") is not None:
-            try:
-                uncertainty = float(entry["girth_uncertainty_mm"])
-            except (TypeError, ValueError) as exc:
-                raise _invalid(f"landmarks.{name}.girth_uncertainty_mm must be a number") from exc
-            if not math.isfinite(uncertainty) or uncertainty < 0:
-                raise _invalid(f"landmarks.{name}.girth_uncertainty_mm must be finite and not negative")
-            clean_landmarks[name]["girth_uncertainty_mm"] = uncertainty
+        for key in ("height_tolerance_mm", "girth_uncertainty_mm"):  # mm, finite and not negative
+            if entry.get(key) is not None:
+                try:
+                    value = float(entry[key])
+                except (TypeError, ValueError) as exc:
+                    raise _invalid(f"landmarks.{name}.{key} must be a number") from exc
+                if not math.isfinite(value) or value < 0:
+                    raise _invalid(f"landmarks.{name}.{key} must be finite and not negative")
+                clean_landmarks[name][key] = value
         if entry.get("confidence") is not None:
             if entry["confidence"] not in ("high", "medium", "low"):
                 raise _invalid(f"landmarks.{name}.confidence must be 'high', 'medium' or 'low'")

@@ -68,6 +68,9 @@ def _broken(record_dict, mutate):
         (lambda d: d.__setitem__("schema_version", 7), "schema_version"),
         (lambda d: d.__setitem__("frame", [[1, 0, 0], [0, 1, 0]]), "frame"),
         (lambda d: d["landmarks"]["C"].__setitem__("circumference_mm", -3), "landmarks.C"),
+        (lambda d: d["landmarks"]["B"].__setitem__("height_tolerance_mm", "wide"), "landmarks.B.height_tolerance_mm must be a number"),
+        (lambda d: d["landmarks"]["C"].__setitem__("girth_uncertainty_mm", -1.0), "landmarks.C.girth_uncertainty_mm must be finite"),
+        (lambda d: d["landmarks"]["D"].__setitem__("girth_uncertainty_mm", float("inf")), "landmarks.D.girth_uncertainty_mm"),
         (lambda d: d.pop("surface"), "surface"),
         (lambda d: d["chart"]["cE"].__setitem__("uncertainty_mm", -2.0), "chart.cE.uncertainty_mm"),
         (lambda d: d["chart"]["cG"].__setitem__("uncertainty_mm", 5.0), "chart.cG.uncertainty_mm"),  # cG not measured

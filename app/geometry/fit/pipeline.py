@@ -261,7 +261,8 @@ def fit_calf(
     # a missing arc of skin at a landmark; not on a sparse cloud, whose slabs leave gaps
     # wherever its few points fall (its own warning, below, covers its girths)
     sparse_warned = density is not None and density < SPARSE_CLOUD_POINTS_PER_MM
-    arcs = {} if sparse_warned else bridged_arcs(sections, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]])))
+    landmark_z = dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]]))
+    arcs = {} if sparse_warned else bridged_arcs(sections, landmark_z)
     landmarks = Landmarks(
         B=Landmark(float(layers_z[0]), float(layer_girth[0])),
         B1=Landmark(float(layers_z[2]), float(layer_girth[2])),
@@ -272,7 +273,7 @@ def fit_calf(
         b_at_scan_edge=edges[0],
         d_at_scan_edge=edges[1],
         tape_girths_mm={name: float(g) for name, g in zip(("B", "B1", "C", "D"), tape)},
-        tolerances_mm=height_tolerances(heights, girth, dict(zip(LANDMARK_NAMES, layers_z[[0, 2, 4, 6]]))),
+        tolerances_mm=height_tolerances(heights, girth, landmark_z),
         girth_uncertainties_mm={name: bound for name, (_, bound) in arcs.items()} or None,
     )
     lap("landmarks")

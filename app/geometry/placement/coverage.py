@@ -52,9 +52,9 @@ def partial_view(sections: PolarSections) -> FitFailure | None:
     """The refusal of a leg seen from one side (module docstring), or None."""
     held = sections.coverage > 0
     open_arc = sections.open_arcs()
-    if not held.any() or open_arc[held].mean() < ONE_SIDED_SHARE or sections.gap_middle_rad is None:
+    share = float(open_arc[held].mean()) if held.any() else 0.0
+    if share < ONE_SIDED_SHARE or sections.gap_middle_rad is None:
         return None
-    share = float(open_arc[held].mean())
     same_side = float(np.abs(np.exp(1j * sections.gap_middle_rad[open_arc]).mean())) >= SAME_DIRECTION
     if not same_side and share < MOST_SHARE:
         return None
