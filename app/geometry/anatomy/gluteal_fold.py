@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled, run_between_crossings
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled, run_around, run_between_crossings
 from app.geometry.sections import mesh_section_segments
 
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
@@ -51,13 +51,27 @@ CLOUD_PROFILE_HALF_MM = 4.0
 #: a cloud's band counts its points per angle round the band's centre in this many sectors
 #: (the paper's 72 polar rays, 5 degrees each): each sector weighs the same
 CLOUD_SECTORS = 72
-#: half the bend's maximum is a convention for the fold's extent, as a full width at half
-#: maximum is; read at these fractions of it instead, G's middle barely moves on a crease
-#: or a fold symmetric about its middle, and moves far where the bend is a long ramp with a
-#: peak on top - where a scanner's noise, by lifting that peak, narrows the run at half
-#: maximum to the peak and moves G along the ramp without widening it (the held-out legs of
-#: benchmarks/chart_accuracy.py 8 5: a noisy mesh read G 16 mm above its clean mesh's,
-#: cG 9.3 mm off, and said nothing; this shift says 11.6 mm of cG)
+#: the bend a thigh's back has without a fold: the largest of the fold-less backs'
+#: (FOLD_MIN_BEND's docstring: 0.01-0.06).  G is the centroid of the bend beyond it - the
+#: fold's own turning, the back's own left out - over the peak's run above it.  The
+#: centroid of a profile's bend between two heights is where the tangents at those heights
+#: meet (integrate z (-y'') by parts): G is the corner the thigh's back and the buttock's
+#: underside make, the crease itself on a crease.  Every height of the run weighs by its
+#: bend, so a scanner's noise that lifts or dents the bend somewhere moves G by its share
+#: of the fold's turning, where the middle of the run at half the maximum moved with the
+#: maximum itself: a noisy mesh of a smooth fold whose bend is a long ramp with a peak on
+#: top read G 16 mm above its clean mesh's, cG 9.3 mm off (benchmarks/chart_accuracy.py 8 5,
+#: held-out leg 2); the centroid reads it 1.0 mm above, cG 0.6 mm off.  Over the legs of
+#: chart_accuracy.py 8 5 and 8 11, one leg's re-scans apart, p95: cG 2.01 -> 1.48 mm, cF
+#: 1.87 -> 1.64 mm
+#: (the tails below THIGH_BACK_BEND, the back's own bend and its noise, are left out: with
+#: them, G moved down the thigh's back by up to 11 mm on a cloud).  BodyParts3D's crease
+#: reads G where the middle of its peak was (0.3 mm apart)
+THIGH_BACK_BEND = 0.06
+#: the fold's bend read beyond these shares of its maximum instead of THIGH_BACK_BEND: on
+#: a fold symmetric about its middle G barely moves; on one whose bend is a long ramp with
+#: a peak on top it moves towards the peak by as much as where the fold is taken to begin
+#: decides, which G's height uncertainty then covers
 PEAK_LEVELS = (1 / 3, 2 / 3)
 #: the back of the leg: this percentile of a section's y (the rearmost 2%), averaged over
 #: +-PROFILE_SMOOTH_MM of height
@@ -163,28 +177,28 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
 
 @dataclass(frozen=True)
 class GlutealFold:
-    """The gluteal fold found in the posterior profile: G's ``height_mm`` (the middle of
-    the bend's peak, its ends read between the samples), or None with the ``reason``;
+    """The gluteal fold found in the posterior profile: G's ``height_mm`` (the centroid of
+    the fold's bend, THIGH_BACK_BEND), or None with the ``reason``;
     ``excess_half_width_mm`` how much wider than a corner the bend's peak is (its half
     width at half maximum less SLOPE_HALF_MM, a sharp corner's own: the fold's own half
     extent for a smooth one; 1.7 mm for an ideal corner sampled on the STEP_MM planes,
     whose peak the profile's +-PROFILE_SMOOTH_MM average widens - left in, not taken
     off: a noisy mesh narrows a smooth fold's peak by as much and more, and this floor is
     part of what its stated uncertainty covers, benchmarks/chart_accuracy.py 8 5);
-    ``level_shift_mm`` how much G depends on reading the peak's extent at half its
-    maximum (PEAK_LEVELS)."""
+    ``level_shift_mm`` how much G depends on where the fold is taken to begin (its bend
+    read beyond PEAK_LEVELS of its maximum instead of beyond THIGH_BACK_BEND)."""
 
     height_mm: float | None
     reason: str | None
     excess_half_width_mm: float = 0.0
-    #: how far G moves when the peak's run is read at PEAK_LEVELS of its maximum instead
-    #: of half (0 for a crease or a fold symmetric about its middle), mm
+    #: how far G moves when the bend is read beyond PEAK_LEVELS of its maximum instead of
+    #: beyond THIGH_BACK_BEND (0 for a crease or a fold symmetric about its middle), mm
     level_shift_mm: float = 0.0
 
     @property
     def height_uncertainty_mm(self) -> float:
         """How far G may lie from ``height_mm`` along the leg: the fold's own half extent
-        beyond a crease's, or how far its middle moves with the level its run is read at,
+        beyond a crease's, or how far it moves with where the fold is taken to begin,
         whichever is more (mm)."""
         return max(self.excess_half_width_mm, self.level_shift_mm)
 
@@ -196,8 +210,9 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     under the scan's top and the skin above it come forward again (else the scan was cut
     through the buttock or below it).  The fold is the sharpest bend of the profile below
     it: the largest drop of the profile's slope dy/dz (over +-SLOPE_HALF_MM, each side of
-    the height), at least FOLD_MIN_BEND; G is the middle of the run of heights round it
-    whose bend is at least half the largest (the peak's full width at half maximum).
+    the height), at least FOLD_MIN_BEND; G is the centroid of the bend beyond
+    THIGH_BACK_BEND over the run of heights round it where the bend exceeds that: where
+    the tangents to the profile at the run's ends meet, the corner of the fold.
 
     How wide the fold is: a corner of the profile (a crease) read by slopes over
     +-SLOPE_HALF_MM gives a triangular bend peak whose half width at half maximum is
@@ -228,14 +243,16 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
                   f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
                   f"fold is too smooth to place; a tape at the fold decides")
         return GlutealFold(None, reason)
-    def run_at(level: float):
-        """The peak's run where the bend is at least ``level`` of its maximum, its ends
-        where the bend crosses that."""
-        return run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] * level)
 
-    run = run_at(0.5)
-    half_width = (run.top_mm - run.bottom_mm) / 2
-    # G is the middle of that run, as E is of the knee's level stretch: the largest bend
-    # alone wanders along a smooth fold's flat peak with a scanner's noise
-    shift = max(abs(run_at(level).middle_mm - run.middle_mm) for level in PEAK_LEVELS)
-    return GlutealFold(run.middle_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift)
+    def centroid(floor: float) -> float:
+        """The centroid (mm) of the bend beyond ``floor`` over the peak's run above it."""
+        first, last = run_around(bend_here > floor, peak)
+        weight = bend_here[first:last + 1] - floor
+        return float(np.sum(weight * heights[search][first:last + 1]) / np.sum(weight))
+
+    # the peak's run at half its maximum, its ends where the bend crosses that
+    half = run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] / 2)
+    half_width = (half.top_mm - half.bottom_mm) / 2
+    g_mm = centroid(THIGH_BACK_BEND)
+    shift = max(abs(centroid(level * bend_here[peak]) - g_mm) for level in PEAK_LEVELS)
+    return GlutealFold(g_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift)

@@ -16,10 +16,10 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
 - **G, the top of the thigh.**  Behind the thigh the skin runs down from the buttock into
   the thigh's back at the gluteal fold, a corner in the posterior profile (the rearmost
   point of each STEP_MM of height) where the profile's slope turns from the thigh's
-  gentle one to the buttock's steep one.  G is that corner: the largest drop of the
-  slope between the thigh's back (100 mm above E) and the buttock's rearmost point, read
-  as the middle of the drop's peak (its full width at half maximum, read between the
-  samples: the largest drop alone wanders along a smooth fold's flat peak);
+  gentle one to the buttock's steep one.  G is that corner: where the slope drops
+  between the thigh's back (100 mm above E) and the buttock's rearmost point, the
+  centroid of the drop beyond what a thigh's back without a fold has - where the
+  tangents to the profile either side of the fold meet, the crease itself on a crease;
   :mod:`app.geometry.anatomy.gluteal_fold` finds it.  A scan without a buttock (its
   rearmost point at the scan's top, as a body's leg cut by the placement below the hips
   has) has no G; a back whose largest bend is under FOLD_MIN_BEND has none found, and
