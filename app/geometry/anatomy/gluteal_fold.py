@@ -187,7 +187,7 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
 @dataclass(frozen=True)
 class GlutealFold:
     """The gluteal fold found in the posterior profile: G's ``height_mm`` (the centroid of
-    the fold's bend, THIGH_BACK_BEND), or None with the ``reason``;
+    the fold's bend beyond THIGH_BACK_BEND), or None with the ``reason``;
     ``excess_half_width_mm`` how much wider than a corner the bend's peak is (its half
     width at half maximum less SLOPE_HALF_MM, a sharp corner's own: the fold's own half
     extent for a smooth one; 1.7 mm for an ideal corner sampled on the STEP_MM planes,
