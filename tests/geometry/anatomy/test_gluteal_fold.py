@@ -55,3 +55,18 @@ def test_a_lifted_peak_on_a_ramp_moves_g_little_and_by_no_more_than_it_says():
     for fold, crease in ((low, 0.10), (lifted, 0.16)):
         corner = (ramp_turn * (FOLD - 80.0 / 3) + crease * FOLD) / (ramp_turn + crease)
         assert corner < fold.height_mm < FOLD
+
+
+def test_a_thigh_backs_own_gentle_bend_into_the_fold_does_not_move_g():
+    """A thigh's back that bends gently on its own over the 100 mm below a crease (a bend of
+    0.04, under a fold-less back's 0.06, THIGH_BACK_BEND) leaves G within 1 mm of the
+    crease: only the fold's turning beyond the back's is weighed.  With the back's own bend
+    counted (the centroid of the whole run where the back bends), G slid 14 mm down it."""
+    heights, rear = _profile(crease=0.5, curvature=0.0)
+    curvature = 0.04 / 20.0  # a bend (the slope's drop over +-10 mm) of 0.04
+    on_back = np.clip(heights - (FOLD - 100.0), 0.0, 100.0)
+    back_bend = curvature * on_back**2 / 2 + curvature * 100.0 * np.clip(heights - FOLD, 0.0, None)
+    plain = gluteal_fold(heights, rear, 50.0, float(heights[-1]))
+    bent = gluteal_fold(heights, rear - back_bend, 50.0, float(heights[-1]))
+    assert plain.height_mm == pytest.approx(FOLD, abs=1.0)
+    assert bent.height_mm == pytest.approx(FOLD, abs=1.0)
