@@ -76,6 +76,25 @@ def test_elongation_of_a_circle_an_ellipse_and_a_missing_section():
     assert np.isnan(elongation[3])
 
 
+def test_a_missing_section_is_bridged_from_closed_neighbours_within_reach_only():
+    """bridge_sections: an open row between closed rows 4 mm below and 6 mm above takes
+    their radii and centroid in proportion (40 -> 50 mm: 44); one whose nearest closed
+    row below is 12 mm away (over LAYER_BRIDGE_MM) and one with none above stay open;
+    closed rows are left as they are."""
+    from app.geometry.sections import PolarSections
+    from app.geometry.sections.polar import bridge_sections
+
+    angles = ray_angles(72)
+    heights = np.array([0.0, 4.0, 10.0, 22.0, 30.0])
+    radii = np.stack([np.full(72, 40.0), np.full(72, np.nan), np.full(72, 50.0), np.full(72, np.nan), np.full(72, np.nan)])
+    centres = np.array([[0.0, 0.0], [np.nan, np.nan], [10.0, -5.0], [np.nan, np.nan], [np.nan, np.nan]])
+    sections = PolarSections(heights, centres, radii, angles, np.ones(5))
+    bridged = bridge_sections(sections, sections)
+    assert np.allclose(bridged.radii_mm[1], 44.0) and np.allclose(bridged.centroids_mm[1], [4.0, -2.0])
+    assert not bridged.valid[3] and not bridged.valid[4]
+    assert np.array_equal(bridged.radii_mm[[0, 2]], radii[[0, 2]])
+
+
 def test_a_tape_band_outvotes_one_spoiled_plane():
     """A tube of radius 45 mm with a 2 mm ridge standing out to 55 mm 4 mm above the
     height read (a fold, a seam of two scanner views): the plane through the ridge reads

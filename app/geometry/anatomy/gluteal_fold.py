@@ -252,15 +252,16 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
                   f"its rearmost point (a fold bends at least {FOLD_MIN_BEND:g}): the scan stops below the fold or the "
                   f"fold is too smooth to place; a tape at the fold decides")
         return GlutealFold(None, reason)
+    heights_here = heights[search]
 
     def centroid(floor: float) -> float:
         """The centroid (mm) of the bend beyond ``floor`` over the peak's run above it."""
         first, last = run_around(bend_here > floor, peak)
         weight = bend_here[first:last + 1] - floor
-        return float(np.sum(weight * heights[search][first:last + 1]) / np.sum(weight))
+        return float(np.sum(weight * heights_here[first:last + 1]) / np.sum(weight))
 
     # the peak's run at half its maximum, its ends where the bend crosses that
-    half = run_between_crossings(heights[search], -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] / 2)
+    half = run_between_crossings(heights_here, -bend_here, np.isfinite(bend_here), peak, -bend_here[peak] / 2)
     half_width = (half.top_mm - half.bottom_mm) / 2
     g_mm = centroid(THIGH_BACK_BEND)
     shift = max(abs(centroid(level * bend_here[peak]) - g_mm) for level in PEAK_LEVELS)

@@ -328,12 +328,18 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
             "ordering",)
 
 
+def _by_tape(name: str, why: str) -> str:
+    """The review reason for a point whose girth the record cannot stand behind: ``why``,
+    then what to do (RAL-GZ 387: take it by tape)."""
+    return f"{name} {why}: take {name} by tape (RAL-GZ 387) before knitting"
+
+
 def _uncertain_landmarks(landmarks: dict) -> tuple[str, ...]:
     """A sentence for each of B, B1, C, D whose tape girth the record says may be off
     (its ``girth_uncertainty_mm``: the scan misses an arc of the skin there,
     app.geometry.placement.coverage): the stocking's pressure there is graded from it."""
-    return tuple(f"c{name} may be off by up to {uncertainty:.0f} mm (the scan misses an arc of the skin there; the "
-                 f"record's warnings say where): take c{name} by tape (RAL-GZ 387) before knitting"
+    return tuple(_by_tape(f"c{name}", f"may be off by up to {uncertainty:.0f} mm (the scan misses an arc of the skin "
+                                      "there; the record's warnings say where)")
                  for name in LANDMARK_NAMES
                  if (uncertainty := (landmarks.get(name) or {}).get("girth_uncertainty_mm")) is not None)
 
@@ -341,13 +347,9 @@ def _uncertain_landmarks(landmarks: dict) -> tuple[str, ...]:
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:
     """A sentence for each of ``names`` whose girth the record's chart says is uncertain
     (its ``uncertainty_mm``, set by app.geometry.anatomy.thigh beyond an order's 3 mm)."""
-    out = []
-    for name in names:
-        uncertainty = ((chart or {}).get(name) or {}).get("uncertainty_mm")
-        if uncertainty is not None:
-            out.append(f"{name} is uncertain by about {uncertainty:.0f} mm (the record's warnings say why): "
-                       f"take {name} by tape (RAL-GZ 387) before knitting")
-    return tuple(out)
+    return tuple(_by_tape(name, f"is uncertain by about {uncertainty:.0f} mm (the record's warnings say why)")
+                 for name in names
+                 if (uncertainty := ((chart or {}).get(name) or {}).get("uncertainty_mm")) is not None)
 
 
 def _thigh_chart(chart: dict | None) -> tuple[dict, dict[str, float]]:

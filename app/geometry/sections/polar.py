@@ -109,19 +109,21 @@ def bridge_sections(layers: PolarSections, sections: PolarSections) -> PolarSect
     on the same ``a`` rays, heights in mm (``layers`` may be ``sections`` itself)."""
     radii, centres = layers.radii_mm.copy(), layers.centroids_mm.copy()
     closed = np.flatnonzero(sections.valid)
-    z = sections.heights_mm[closed]
-    for row in np.flatnonzero(~layers.valid):  # the few open rows
-        h = layers.heights_mm[row]
-        below, above = closed[z <= h], closed[z >= h]
-        if not below.size or not above.size:
-            continue
-        lo, hi = below[-1], above[0]
-        z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
-        if h - z_lo > LAYER_BRIDGE_MM or z_hi - h > LAYER_BRIDGE_MM:
-            continue
-        t = 0.0 if z_hi == z_lo else (h - z_lo) / (z_hi - z_lo)
-        radii[row] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
-        centres[row] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
+    z = sections.heights_mm[closed]  # rising
+    rows = np.flatnonzero(~layers.valid)
+    h = layers.heights_mm[rows]
+    below = np.searchsorted(z, h, side="right") - 1  # the last closed row at or under each
+    above = np.searchsorted(z, h, side="left")  # the first at or over it
+    inside = (below >= 0) & (above < len(z))
+    lo, hi = closed[np.clip(below, 0, None)[inside]], closed[np.clip(above, None, len(z) - 1)[inside]]
+    rows, h = rows[inside], h[inside]
+    z_lo, z_hi = sections.heights_mm[lo], sections.heights_mm[hi]
+    near = (h - z_lo <= LAYER_BRIDGE_MM) & (z_hi - h <= LAYER_BRIDGE_MM)
+    rows, h, lo, hi, z_lo, z_hi = rows[near], h[near], lo[near], hi[near], z_lo[near], z_hi[near]
+    span = z_hi - z_lo
+    t = np.divide(h - z_lo, span, out=np.zeros_like(h), where=span != 0)[:, None]
+    radii[rows] = (1 - t) * sections.radii_mm[lo] + t * sections.radii_mm[hi]
+    centres[rows] = (1 - t) * sections.centroids_mm[lo] + t * sections.centroids_mm[hi]
     return dataclasses.replace(layers, radii_mm=radii, centroids_mm=centres)
 
 
