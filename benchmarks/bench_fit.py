@@ -39,6 +39,7 @@ from app.geometry.spline.distance import algorithm1_distances, dense_grid, newto
 from app.geometry.spline.nurbs import evaluate_grid  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
 from benchmarks.corpus.degrade import coarsen  # noqa: E402
+from benchmarks.ratios import paired_ratio  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -133,10 +134,9 @@ def load_ratio_rows(leg: trimesh.Trimesh, pairs: int = 9) -> list[dict]:
                 start = time.perf_counter()
                 run()
                 times.append(time.perf_counter() - start)
-        ratios = np.divide(fits, loads)
-        p25, median, p75 = np.percentile(ratios, [25, 50, 75]).tolist()
+        paired = paired_ratio(fits, loads)
         rows.append({"faces": int(len(mesh.faces)), "trimesh_load_s": float(np.median(loads)),
-                     "fit_s": float(np.median(fits)), "ratio": median, "ratio_p25": p25, "ratio_p75": p75,
+                     "fit_s": float(np.median(fits)), "ratio": paired["median"], "paired": paired,
                      "target": 1.5 if target > 100_000 else 4.0})
     return rows
 
@@ -261,7 +261,7 @@ def write_markdown(rows: list[dict], speed: dict) -> str:
         f"{speed['exact_50k_s'] / speed['alg1_50k_s']:.2f}x | < 250 ms |",
         *(f"| `calf-nurbs fit` of the leg at {row['faces']:,} faces (read + place + fit + record) | "
           f"{row['fit_s'] * 1e3:.0f} ms | trimesh.load of the same STL: {row['trimesh_load_s'] * 1e3:.0f} ms | "
-          f"{row['ratio']:.2f}x ({row['ratio_p25']:.2f}-{row['ratio_p75']:.2f}) | "
+          f"{row['ratio']:.2f}x ({row['paired']['p25']:.2f}-{row['paired']['p75']:.2f}) | "
           f"< {row['target']:g}x{'' if row['ratio'] < row['target'] else ' (not met)'} |"
           for row in speed["load_ratios"]),
         "",

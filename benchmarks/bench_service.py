@@ -35,6 +35,7 @@ sys.path.insert(0, str(ROOT))
 
 from app.geometry.fit.pipeline import FitOptions, fit_scan  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
+from benchmarks.ratios import paired_ratio  # noqa: E402
 
 DATA = ROOT / "tests" / "data" / "real"
 RESULTS = ROOT / "benchmarks" / "results"
@@ -166,9 +167,7 @@ def main() -> None:
         "core_fit_s": core,
         "upload_to_record_s": {f: statistics.median(v) for f, v in latency.items()},
         # each upload over the core's fit just before it: median and quartiles over the rounds
-        "upload_over_core": {f: dict(zip(("p25", "median", "p75"),
-                                         np.percentile(np.divide(latency[f], core_times[f]), [25, 50, 75]).tolist()))
-                             for f in latency},
+        "upload_over_core": {f: paired_ratio(latency[f], core_times[f]) for f in latency},
         "throughput_jobs_per_s": THROUGHPUT_JOBS / elapsed,
         "ideal_jobs_per_s": ideal,
         "get_idle_ms": {"median": 1e3 * statistics.median(idle_get), "p95": 1e3 * float(np.percentile(idle_get, 95))},
