@@ -10,9 +10,12 @@ JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")
                weights [nu][nv], periodic_u}
     frame     4x4 matrix taking calf-frame mm to the scan's own coordinates and units
               (so it includes the uniform scale 1/mm_per_unit)
-    scan      {units, format, n_points, anterior_cue, sole_mm}: sole_mm, when the foot is
-              in the scan, is the calf-frame z of its lowest point (the floor under a
-              standing person; heights above the floor are height_mm - sole_mm)
+    scan      {units, format, n_points, anterior_cue, sole_mm, sole_reason}: sole_mm, when
+              the scan holds a foot standing flat down to its sole, is the calf-frame z
+              of the heel's lowest skin (the floor under a standing person; heights
+              above the floor are height_mm - sole_mm); sole_reason, when the foot is in
+              the scan but its sole is not (cut through the foot, a pointed foot), says
+              why (app.geometry.anatomy.sole)
     landmarks {B, B1, C, D: {height_mm, circumference_mm, tape_girth_mm, at_scan_edge,
               height_tolerance_mm, confidence, girth_uncertainty_mm (only where the scan
               misses an arc of skin there whose bridge may move the girth over 3 mm)}}
@@ -207,6 +210,7 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
             "n_points": result.n_scan_points,
             "anterior_cue": result.frame.anterior_cue,
             **({"sole_mm": result.sole_mm} if result.sole_mm is not None else {}),
+            **({"sole_reason": result.sole_reason} if result.sole_reason is not None else {}),
         },
     )
 

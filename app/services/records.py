@@ -169,7 +169,7 @@ def record_chart(parsed: CalfRecord, stocking_type: str = "AG") -> list[dict]:
              "needed_for": list(m.point.needed_for), "needed": m.needed, "value_mm": m.value_mm,
              "height_mm": m.height_mm, "at_mm": None if m.at_mm is None else list(m.at_mm), "reason": m.reason,
              **({"uncertainty_mm": m.uncertainty_mm} if m.uncertainty_mm is not None else {})}
-            for m in chart_of_record(parsed.landmarks, sole, stocking_type, foot)]
+            for m in chart_of_record(parsed.landmarks, sole, stocking_type, foot, (parsed.scan or {}).get("sole_reason"))]
 
 
 def surface_etag(record_etag_value: str, file_format: str, around: int, along: int, part: str = "calf") -> str:

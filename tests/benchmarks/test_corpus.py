@@ -10,8 +10,13 @@ from __future__ import annotations
 
 import pytest
 
-from benchmarks.corpus.cases import build_case, corpus_specs
+from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
+from app.geometry.garment.measuring_points import chart_of_record
+from app.geometry.scan.reader import load_scan
+from app.records.codec import record_from_fit
+from benchmarks.corpus.cases import CaseSpec, build_case, corpus_specs
 from benchmarks.corpus.evaluate import run_case
+from benchmarks.sole import NO_FLOOR, sole_row
 
 #: end to end and slow: `make test-slow` (and .ci/run) runs it, `make test` does not
 pytestmark = pytest.mark.slow
@@ -81,3 +86,29 @@ def test_a_scan_cut_below_its_knee_waist_says_the_waist_may_be_thinner():
     assert result["outcome"] == "fit" and "D" in result["at_scan_edge"]
     assert result["girth_error_mm"]["D"] > 0.0
     assert any("may be thinner than cD and higher than lD" in w for w in result["warnings"])
+
+
+def test_the_floor_of_a_leg_scanned_with_strays_cut_through_the_foot_and_pointed():
+    """One generated leg (leg seed 0) scanned clean, as a cloud with a scanner's stray
+    points, cut 30-50 mm above the sole and with its foot pointed 20-45 degrees, fitted as
+    an upload is and read as the record's chart: the strays leave lB within 2 mm of the
+    clean scan's (the heel's plain lowest point read it 8.5 mm long), and the cut and
+    the pointed foot give no length, each saying why (they read 40-60 mm short and
+    5-20 mm long)."""
+    chart, rows = {}, {}
+    for kind, seed in (("mesh_clean", 100), ("cloud_outliers", 200), ("midfoot_midthigh", 300), ("plantar", 400)):
+        case = build_case(CaseSpec(f"floor-{kind}", kind, seed, 1000, leg_seed=0))
+        scan = load_scan(case.data, file_type=case.file_type, units=case.units)
+        rows[kind] = sole_row(kind, kind, scan, case.side)
+        if kind in NO_FLOOR:
+            options = FitOptions(side=case.side)
+            record = record_from_fit(fit_scan(scan, options, check_scan(scan, options)), scan.source_format, scan.units)
+            chart[kind] = {m.point.name: m for m in chart_of_record(record.landmarks, record.scan.get("sole_mm"), "AG",
+                                                                    record.chart, record.scan.get("sole_reason"))}
+    clean = rows["mesh_clean"]["lB"]
+    strays = rows["cloud_outliers"]
+    assert abs(strays["lB"] - clean) < 2.0 and abs(strays["lB_lowest_point"] - clean) > 5.0, strays
+    for kind, why in (("midfoot_midthigh", "cut through the foot"), ("plantar", "the foot is pointed")):
+        assert rows[kind]["lB"] is None and why in rows[kind]["reason"]
+        for point in ("lB", "lC", "lD", "foot_length", "cA", "cY"):
+            assert chart[kind][point].value_mm is None and why in chart[kind][point].reason, (kind, point)

@@ -36,6 +36,10 @@ def test_without_the_floor_the_lengths_say_so_and_a_bad_type_is_refused(landmark
     chart = {m.point.name: m for m in chart_of_record(landmarks, None, "AG")}
     assert chart["lC"].value_mm is None and "sole is not in the scan" in chart["lC"].reason
     assert chart["cC"].value_mm == landmarks["C"]["tape_girth_mm"]
+    # a foot in the scan without its sole (cut through, pointed): every length says why
+    why = "the foot is pointed: its forefoot reaches 60 mm below the heel"
+    pointed = chart_of_record(landmarks, None, "AG", no_sole_reason=why)
+    assert [m.reason for m in pointed if m.point.name in ("lB", "lB1", "lC", "lD")] == [why] * 4
     without_b1 = {k: v for k, v in landmarks.items() if k != "B1"}
     assert "no landmark B1" in {m.point.name: m for m in chart_of_record(without_b1, None, "AD")}["cB1"].reason
     with pytest.raises(ValueError, match="AD, AG"):

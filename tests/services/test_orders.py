@@ -19,7 +19,10 @@ from tests.conftest import fitted
 def test_an_older_design_and_a_record_without_side_or_floor_are_ordered_with_warnings():
     _, result = fitted("bodyparts3d_right_leg.stl", None)
     fitted_record = record_from_fit(result, "stl", "mm")
-    record = replace(fitted_record, scan={k: v for k, v in fitted_record.scan.items() if k != "sole_mm"})
+    # the foot in the scan but not its sole (app.geometry.anatomy.sole): the record says why
+    why = "the scan is cut through the foot above the heel's underside"
+    record = replace(fitted_record, scan={**{k: v for k, v in fitted_record.scan.items() if k != "sole_mm"},
+                                          "sole_reason": why})
     inputs = inputs_as_dict(inputs_from_request({"fabric": {"stiffness_n_per_cm": 12.0}}))
     del inputs["toe"]  # as stored before 2026-12-02
     design = Design(id="d" * 32, record_id="r" * 32, inputs=inputs, result=compute_design(record, inputs_from_request(inputs)),
@@ -32,7 +35,7 @@ def test_an_older_design_and_a_record_without_side_or_floor_are_ordered_with_war
     assert "the design was made before the toe was asked: closed toe assumed" in order["warnings"]
     lengths = {m["point"]: m for m in order["measurements"] if m["point"] in ("lB", "lB1", "lC", "lD")}
     assert len(lengths) == 4
-    assert all(m["value_mm"] is None and "sole is not in the scan" in m["reason"] for m in lengths.values())
+    assert all(m["value_mm"] is None and m["reason"] == why for m in lengths.values())
     assert order["case_ref"] is None and order["sole_height_mm"] is None
     pdf = order_pdf(order)  # a diagram without a floor still draws
     assert pdf.startswith(b"%PDF-") and len(pdf) > 2000

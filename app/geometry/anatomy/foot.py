@@ -200,10 +200,13 @@ def _running_median(values: np.ndarray, planes: int) -> np.ndarray:
     return out
 
 
-def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None) -> FootMeasures:
-    """The foot length, cA and cY of the module docstring (mm), or why not."""
+def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None,
+                  no_sole_reason: str | None = None) -> FootMeasures:
+    """The foot length, cA and cY of the module docstring (mm), or why not: without a
+    sole, ``no_sole_reason`` (app.geometry.anatomy.sole says why a foot in the scan has
+    none) or that the foot is not in the scan."""
     if sole_mm is None:
-        return _not_measured("the foot is not in the scan")
+        return _not_measured(no_sole_reason or "the foot is not in the scan")
     # the foot: below halfway from the sole to B (the forefoot is 40-55 mm high, B 100-150
     # mm above the sole; the shank's back above the heel would cut the heel's end planes)
     below_b, below_faces = _below(points, faces, 0.5 * sole_mm)

@@ -28,6 +28,7 @@ from app.geometry.anatomy.feature_layers import (
 )
 from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
 from app.geometry.anatomy.foot import FootMeasures, foot_measures
+from app.geometry.anatomy.sole import find_sole
 from app.geometry.anatomy.thigh import ThighMeasures, thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
@@ -93,7 +94,9 @@ class FitResult:
     timings: dict = field(default_factory=dict)
     placement: LegPlacement | None = None
     lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
-    sole_mm: float | None = None  # calf-frame z of the sole (the leg's lowest point) when the foot is in the scan
+    sole_mm: float | None = None  # calf-frame z of the sole (the heel's lowest skin) when the scan has it
+    #: why a scan with its foot in it has no sole to measure lengths from (app.geometry.anatomy.sole)
+    sole_reason: str | None = None
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
@@ -154,18 +157,17 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
     local = where.frame.to_calf(leg.points)
     result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where, n_scan_points=n_scan_points)
     result.timings["calf_frame"] = placing_s
-    if where.anterior_cue == "foot":
-        # the foot is in the scan (it told front from back): the lowest point of the heel
-        # (behind and below B's centroid) is the sole, the floor a standing person's
-        # heights are measured from (ISO 8559-1); the heel, not the whole foot: a lying
-        # body's pointed toes reach lower
-        heel = local[(local[:, 1] <= 0.0) & (local[:, 2] < 0.0), 2]
-        if heel.size:
-            result = dataclasses.replace(result, sole_mm=float(heel.min()))
     # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()
+    if where.anterior_cue == "foot":
+        # the foot is in the scan (it told front from back): the heel's lowest skin is the
+        # sole, the floor a standing person's heights are measured from (ISO 8559-1), when
+        # the scan reaches under the heel and the foot stands flat (app.geometry.anatomy.sole)
+        sole = find_sole(local, leg.faces)
+        result = dataclasses.replace(result, sole_mm=sole.height_mm, sole_reason=sole.reason)
     thigh = thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces))
-    result = dataclasses.replace(result, foot=foot_measures(local, leg.faces, result.sole_mm), thigh=thigh,
+    foot = foot_measures(local, leg.faces, result.sole_mm, result.sole_reason)
+    result = dataclasses.replace(result, foot=foot, thigh=thigh,
                                  fit_warnings=result.fit_warnings + thigh.warnings)
     result.timings["chart_points"] = time.perf_counter() - measuring
     modelling = time.perf_counter()

@@ -90,7 +90,7 @@ THIGH_POINTS = ("cE", "cF", "cG")
 
 
 def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
-                    foot: dict | None = None) -> tuple[MeasuredPoint, ...]:
+                    foot: dict | None = None, no_sole_reason: str | None = None) -> tuple[MeasuredPoint, ...]:
     """Every measuring point of the order form for a calf record.
 
     landmarks: name -> {"height_mm", "circumference_mm", "tape_girth_mm"?} for B, B1, C, D
@@ -100,9 +100,11 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
     tape); lengths are heights above the sole plane.  ``foot``: the record's chart
     {foot_length, cA, cY: {value_mm, at_mm, reason}, cE, cF, cG: {value_mm, height_mm,
     at_mm (the section's centre; absent in records made before it was kept), reason}}
-    (None: a record before version 3)."""
+    (None: a record before version 3); ``no_sole_reason``: why a scan with its foot in it
+    has no sole (the record's scan.sole_reason), said of every length."""
     if stocking_type not in STOCKING_TYPES:
         raise ValueError(f"stocking type must be one of {', '.join(STOCKING_TYPES)}")
+    no_floor = no_sole_reason or "the sole is not in the scan, so there is no floor to measure from"
     measured = []
     for point in MEASURING_POINTS:
         needed = stocking_type in point.needed_for
@@ -123,8 +125,7 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
             elif height is None:
                 measured.append(MeasuredPoint(point, None, None, needed, level.get("reason")))
             elif sole_mm is None:
-                measured.append(MeasuredPoint(point, None, height, needed,
-                                              "the sole is not in the scan, so there is no floor to measure from"))
+                measured.append(MeasuredPoint(point, None, height, needed, no_floor))
             else:
                 measured.append(MeasuredPoint(point, float(height) - float(sole_mm), height, needed))
         elif point.name in FOOT_POINTS:
@@ -144,8 +145,7 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
         elif entry is not None and sole_mm is not None:
             measured.append(MeasuredPoint(point, float(entry["height_mm"]) - float(sole_mm), float(entry["height_mm"]), needed))
         elif entry is not None:
-            measured.append(MeasuredPoint(point, None, float(entry["height_mm"]), needed,
-                                          "the sole is not in the scan, so there is no floor to measure from"))
+            measured.append(MeasuredPoint(point, None, float(entry["height_mm"]), needed, no_floor))
         elif letter in CALF_POINTS:
             measured.append(MeasuredPoint(point, None, None, needed, f"the record has no landmark {letter}"))
         else:
