@@ -9,8 +9,8 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   the foot's long axis as its first principal direction in the horizontal plane, pointed
   forward (+y); the foot length is the footprint-and-foot extent along that axis, heel to
   the tip of the longest toe (ISO 7250-1 5.3.1: foot length parallel to the foot axis),
-  from the third-lowest and third-highest projection (robust to two stragglers the
-  clean-up left; on a 2 mm scan this moves a tip by under 1 mm).
+  from the third-lowest and third-highest projection of the skin (robust to two
+  stragglers the clean-up left; on a 2 mm scan this moves a tip by under 1 mm).
 - **cA, the ball girth.**  ANSUR II's ball-of-foot length (heel to the first metatarsal
   head) is 0.740 +- 0.014 of the foot length (6,068 subjects, tests/data/ansur2), and the
   fifth metatarsal head lies about 0.1 of the foot length behind the first; the ball
@@ -25,6 +25,9 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
+- **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
+  nor its heel's corner (:class:`app.geometry.anatomy.sole.Skin`): taken for them they
+  read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -37,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
+from app.geometry.anatomy.sole import Skin
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, group_median, mesh_section_segments
 
 #: points this close to the sole (mm) are its footprint
@@ -219,8 +223,14 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     axis = np.array([axis2[0], axis2[1], 0.0])
     across = np.cross([0.0, 0.0, 1.0], axis)
     along = below_b @ axis
-    ordered = np.sort(along)
-    heel_t, toe_t = ordered[2], ordered[-3]
+    # the ends: the third skin point from either end (two stragglers the clean-up left
+    # aside; a cloud's stray points are no skin, app.geometry.anatomy.sole.Skin)
+    skin = Skin(below_b, below_faces is not None)
+    every = np.arange(len(below_b))
+    heel_end, toe_end = skin.first(every, along, skip=2), skin.first(every, -along, skip=2)
+    if heel_end is None or toe_end is None:
+        return _not_measured("the scan has too few points near the sole to find the foot")
+    heel_t, toe_t = float(along[heel_end]), float(along[toe_end])
     length = float(toe_t - heel_t)
     if length < MIN_FOOT_MM:
         return _not_measured(f"the foot in the scan is {length:.0f} mm long, shorter than any foot "
@@ -265,7 +275,10 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     one runs up the shank, out of the part of the scan it is measured on)."""
     up = np.array([0.0, 0.0, 1.0])
     back_down = -(axis + up) / np.sqrt(2.0)
-    heel = points[int(np.argmax(points @ back_down))]
+    corner = Skin(points, faces is not None).first(np.arange(len(points)), -(points @ back_down))
+    if corner is None:
+        return FootPoint("cY", None, reason="the heel is not in the scan")
+    heel = points[corner]
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
     girths = np.full(len(tilts), np.nan)
     centres = np.zeros((len(tilts), 3))

@@ -16,23 +16,32 @@ found from the foot (its anterior cue).  Arrays: points (n, 3), faces (f, 3) or 
   nearest neighbour lies beyond m with probability 1/2), 11 at r = STRAY_RADIUS_SPACINGS
   m, more on a scanner's regular grid; a ghost off the skin holds none, a floor's stray
   points under the heel one or two.  A cloud's point with fewer than STRAY_NEIGHBOURS
-  (a third of the skin's) is no skin.  m is the heel's own, the median over the points
-  where its lowest skin can lie: a scanner's spacing changes over a foot (a
-  tessellation's vertices: 0.4 mm apart on the heel's back, 1.2 mm on the sole), and a
-  spacing taken over the whole foot took the sole's points for strays (lB 1.9 mm short).
-  Only the points that decide - the heel's back and the lowest points - are tested.  A
+  (a third of the skin's) is no skin, nor is a point of a scanner's streak, a line of
+  points leaving the skin (its nearest points spread along one line: STREAK_SHARE).
+  m is local, the median over the SPACING_SAMPLE points nearest the decision (the
+  heel's lowest, for the sole; the foot's ends): a scanner's spacing
+  changes over a foot (a tessellation's vertices: 0.4 mm apart on the heel's back, 1.2
+  mm on the sole), and a spacing taken over the whole foot took the sole's points for
+  strays (lB 1.9 mm short) and, on a body's 6,500 vertices, most of a forefoot's.
+  Only the points that decide - the heel's back, the lowest points, the foot's ends and
+  its heel's corner - are tested.  A
   mesh's vertices are joined skin (the clean-up removed its stray pieces:
   app.geometry.scan.cleanup).
 - **The heel turns under the sole.**  On a standing foot the back of the heel (the
-  calcaneal tuberosity under its pad) is furthest back 20-42 mm above the floor (measured
-  on 6 generated legs and the 5 real ones of tests/data), and below that the heel rounds
-  forward into the sole by 14-32 mm.  A scan cut through the foot above the heel's
-  underside (a crop at the midfoot) has its lowest point on the cut: there the heel's
-  back still runs down, its rearmost point within a few mm of the scan's lowest (at
-  most 8 mm on the corpus's midfoot crops), and a round heel (radius 25-30 mm) turns
-  forward by only 2-3 mm within 12 mm of its rearmost point.  So the sole is in the scan
-  only where the heel's rearmost point lies at least HEEL_REARMOST_ABOVE_MM above the
-  lowest and the heel's back at the lowest is at least HEEL_TURN_MM forward of it.
+  calcaneal tuberosity under its pad) is furthest back 23-53 mm above the floor, and
+  below that the heel rounds forward into the sole by 14-46 mm (117 scans of 12
+  generated legs, every kind of benchmarks/sole.py; the 5 real legs of tests/data:
+  23-43 and 24-32 mm).  A scan cut through the foot above the heel's underside (a crop
+  at the midfoot) has its lowest point on the cut: there the heel's back still runs
+  down, furthest back 3-11 mm above the scan's lowest point on the corpus's 12 midfoot
+  crops (cut 30-50 mm above the sole), and a round heel (radius 25-30 mm) turns forward
+  by only 2-3 mm within 12 mm of its rearmost point (a crop's ragged first section
+  read up to 12).  So the sole is in the scan only where the heel's rearmost point lies
+  at least HEEL_REARMOST_ABOVE_MM above the lowest (halfway between the crops' 11 and
+  the standing feet's 23) and the heel's back just above the lowest lies at least
+  HEEL_TURN_MM forward of it (half the standing feet's least).  A crop within about 15
+  mm of the sole is not told from a foot standing on a platform that hid its sole: it
+  reads the lengths short by the crop's height.
 - **A foot standing flat has its forefoot on the heel's floor.**  The forefoot's lowest
   point lies within 12 mm of the heel's (above or below: the heel pad and the toes' pads
   differ) on the same legs standing; a foot pointed by an angle t lowers the ball of the
@@ -50,10 +59,21 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from app.geometry.sections import mesh_section_segments
+
 #: a cloud's stray point: fewer than STRAY_NEIGHBOURS within STRAY_RADIUS_SPACINGS median
 #: spacings (module docstring)
 STRAY_RADIUS_SPACINGS = 4.0
 STRAY_NEIGHBOURS = 4
+#: a scanner's streak (a line of points leaving the skin, 30-80 mm long): the second
+#: largest spread (eigenvalue of the covariance) of a point's STREAK_NEIGHBOURS nearest
+#: under STREAK_SHARE of the largest.  On skin they spread over a patch of the surface
+#: (a share of 0.1 or more even on a tessellation's rings, 3 times as far apart as their
+#: points); on a streak along it, the second spread the streak's own scatter
+STREAK_NEIGHBOURS = 8
+STREAK_SHARE = 0.05
+#: the skin's spacing round the points tested is the median over this many of them
+SPACING_SAMPLE = 2000
 #: the lowest points are tested this many at a time, lowest first
 STRAY_BATCH = 256
 #: stray points lie up to this far off the skin (a scanner's ghosts: 5-40 mm), mm
@@ -64,10 +84,10 @@ HEEL_HALF_BAND_MM = 10.0
 HEEL_SPAN_MM = 60.0
 HEEL_SLAB_MM = 2.0
 #: the sole is in the scan only where the heel's rearmost point lies this far above the
-#: scan's lowest point (standing feet: 20-42 mm) ...
-HEEL_REARMOST_ABOVE_MM = 12.0
-#: ... and the heel's back at the lowest slab lies this far forward of it (standing: 14-32)
-HEEL_TURN_MM = 5.0
+#: scan's lowest point (standing feet: 23-53 mm; crops 30-50 mm above the sole: 3-11) ...
+HEEL_REARMOST_ABOVE_MM = 17.0
+#: ... and the heel's back just above the lowest lies this far forward of it (standing: 14-46)
+HEEL_TURN_MM = 7.0
 #: a forefoot this far below the heel is pointed (standing feet: within 12 mm), mm
 FLAT_FOOT_MM = 25.0
 
@@ -81,44 +101,65 @@ class Sole:
     reason: str | None = None
 
 
-class _Skin:
-    """Which points of a cloud are skin, asked of a few at a time (module docstring);
-    every point of a mesh is.  ``points`` (n, 3) mm, ``spacing_from`` (k,) the indices of
-    the points whose median spacing is the skin's."""
+class Skin:
+    """Which of a scan's points are skin (module docstring), asked of the few points that
+    decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
+    STRAY_RADIUS_SPACINGS median spacings of the points round them.  ``points`` (n, 3)
+    mm; ``is_mesh``: they are a mesh's vertices."""
 
-    def __init__(self, points: np.ndarray, is_mesh: bool, spacing_from: np.ndarray):
+    def __init__(self, points: np.ndarray, is_mesh: bool):
         self.points = points
-        self.tree = None if is_mesh or len(spacing_from) <= STRAY_NEIGHBOURS else cKDTree(points)
-        if self.tree is not None:
-            sample = points[spacing_from[:: max(len(spacing_from) // 2000, 1)]]
-            self.radius = STRAY_RADIUS_SPACINGS * float(np.median(self.tree.query(sample, k=2)[0][:, 1]))
+        self.tree = None if is_mesh or len(points) <= STRAY_NEIGHBOURS + 1 else cKDTree(points)
 
-    def of(self, index: np.ndarray) -> np.ndarray:
-        """(k,) bool for the points ``index`` (k,)."""
+    def of(self, index: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
+        """(k,) bool for the points ``index`` (k,), the spacing the median over the points
+        ``near`` (indices; ``index`` itself when None)."""
         if self.tree is None or not len(index):
             return np.ones(len(index), dtype=bool)
-        return self.tree.query_ball_point(self.points[index], self.radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
+        near = index if near is None else near
+        sample = self.points[near[:: max(len(near) // SPACING_SAMPLE, 1)]]
+        radius = STRAY_RADIUS_SPACINGS * float(np.median(self.tree.query(sample, k=2)[0][:, 1]))
+        dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
+        # a streak: its nearest points spread along one line, where a surface's spread in two
+        _, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
+        around = self.points[nearest] - self.points[nearest].mean(axis=1, keepdims=True)  # (k, m, 3)
+        spread = np.linalg.eigvalsh(np.einsum("kmi,kmj->kij", around, around))  # (k, 3) rising
+        return dense & (spread[:, 1] >= STREAK_SHARE * spread[:, 2])
 
-    def lowest(self, index: np.ndarray) -> int | None:
-        """The lowest skin point among ``index`` (its index), None when none is skin."""
-        order = index[np.argsort(self.points[index, 2], kind="stable")]
-        for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie lower
+    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
+        """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
+        rising (its index into the points), None when there are not so many; the spacing
+        is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
+        order = index[np.argsort(key, kind="stable")]
+        near = order[:SPACING_SAMPLE]
+        found = 0
+        for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
-            skin = self.of(batch)
-            if skin.any():
-                return int(batch[np.argmax(skin)])
+            skin = np.flatnonzero(self.of(batch, near))
+            if found + len(skin) > skip:
+                return int(batch[skin[skip - found]])
+            found += len(skin)
         return None
 
 
-def _heel_back(band: np.ndarray, lowest_mm: float) -> tuple[float, float] | None:
-    """How far above ``lowest_mm`` the heel's back (the least y of each slab of the band
-    ``band`` (k, 3): skin points of the heel in a sagittal band round its middle, within
-    HEEL_SPAN_MM above the lowest) is furthest back, and how far forward of that it lies
-    at the lowest slab holding a point (mm); None where fewer than 3 slabs hold one."""
+def _heel_back(heel: np.ndarray, faces: np.ndarray | None, middle_x: float, lowest_mm: float) -> tuple[float, float] | None:
+    """How far above ``lowest_mm`` the heel's back is furthest back, and how far forward
+    of that it lies just above the lowest (mm); None where fewer than 3 of its heights
+    hold skin.  The back at a height is the least y, behind B (y <= 0) and within
+    HEEL_HALF_BAND_MM of ``middle_x``, of a mesh's exact plane section there (``heel`` (k, 3) its vertices,
+    ``faces`` (f, 3): a mesh's vertices alone are 3-4 mm apart and a crop's ragged edge
+    moved its lowest ones forward, reading a cut heel as one that turns under) or of a
+    cloud's points (``faces`` None) in the HEEL_SLAB_MM slab above it."""
     n_slabs = int(np.ceil(HEEL_SPAN_MM / HEEL_SLAB_MM))
-    slab = np.clip(np.floor((band[:, 2] - lowest_mm) / HEEL_SLAB_MM).astype(np.int64), 0, n_slabs - 1)
+    if faces is not None:
+        plane, segments = mesh_section_segments(heel, faces, lowest_mm + HEEL_SLAB_MM * (np.arange(n_slabs) + 0.5))
+        slab, xy = np.repeat(plane, 2), segments.reshape(-1, 2)
+    else:
+        slab = np.floor((heel[:, 2] - lowest_mm) / HEEL_SLAB_MM).astype(np.int64)
+        xy = heel[:, :2]
+    keep = (np.abs(xy[:, 0] - middle_x) <= HEEL_HALF_BAND_MM) & (xy[:, 1] <= 0.0) & (slab >= 0) & (slab < n_slabs)
     rear = np.full(n_slabs, np.inf)
-    np.minimum.at(rear, slab, band[:, 1])
+    np.minimum.at(rear, slab[keep], xy[keep, 1])
     filled = np.flatnonzero(np.isfinite(rear))
     if len(filled) < 3:
         return None
@@ -133,25 +174,29 @@ def find_sole(points: np.ndarray, faces: np.ndarray | None) -> Sole:
     if len(foot):  # where the heel's and the forefoot's lowest skin can lie, strays included
         foot = foot[foot[:, 2] < float(foot[:, 2].min()) + HEEL_SPAN_MM + STRAY_REACH_MM]
     behind = np.flatnonzero(foot[:, 1] <= 0.0)
-    heel_bottom = behind[foot[behind, 2] < float(foot[:, 2].min()) + STRAY_REACH_MM + HEEL_SPAN_MM / 3]
-    skin = _Skin(foot, faces is not None and len(faces) > 0, heel_bottom)
-    heel_index = skin.lowest(behind) if len(behind) >= 10 else None
+    skin = Skin(foot, faces is not None and len(faces) > 0)
+    heel_index = skin.first(behind, foot[behind, 2]) if len(behind) >= 10 else None
     if heel_index is None:
         return Sole(None, "the scan has no heel behind and below the ankle to stand on")
     lowest = float(foot[heel_index, 2])
     near = behind[(foot[behind, 2] >= lowest) & (foot[behind, 2] < lowest + HEEL_SPAN_MM)]
     middle_x = float(np.median(foot[near[foot[near, 2] < lowest + HEEL_SPAN_MM / 3], 0]))
-    band = near[np.abs(foot[near, 0] - middle_x) <= HEEL_HALF_BAND_MM]
-    back = _heel_back(foot[band[skin.of(band)]], lowest)
+    if skin.tree is None and faces is not None and len(faces):
+        low_faces = faces[points[faces, 2].min(axis=1) < lowest + HEEL_SPAN_MM]  # the planes cut nothing higher
+        back = _heel_back(points, low_faces, middle_x, lowest)
+    else:
+        band = near[np.abs(foot[near, 0] - middle_x) <= HEEL_HALF_BAND_MM]
+        back = _heel_back(foot[band[skin.of(band)]], None, middle_x, lowest)
     if back is None:
         return Sole(None, "the back of the heel is not in the scan (a hole or a crop), so where the sole lies is unknown")
     rearmost_above, turn = back
     if rearmost_above < HEEL_REARMOST_ABOVE_MM or turn < HEEL_TURN_MM:
         return Sole(None, f"the scan is cut through the foot above the heel's underside: the heel's back runs down to "
                           f"the scan's lowest point (furthest back {rearmost_above:.0f} mm above it, {turn:.0f} mm "
-                          f"forward at it; a standing heel rounds forward under it by 14-32 mm), so the sole and the "
+                          f"forward at it; a standing heel rounds forward under it by 14 mm or more), so the sole and the "
                           f"floor are not in the scan")
-    toe_index = skin.lowest(np.flatnonzero(foot[:, 1] > 0.0))
+    front = np.flatnonzero(foot[:, 1] > 0.0)
+    toe_index = skin.first(front, foot[front, 2])
     below = 0.0 if toe_index is None else lowest - float(foot[toe_index, 2])
     if below > FLAT_FOOT_MM:
         return Sole(None, f"the foot is pointed: its forefoot reaches {below:.0f} mm below the heel (standing flat, "
