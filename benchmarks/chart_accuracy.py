@@ -60,7 +60,7 @@ def chart_points(scan, side: str | None) -> dict:
         return {"outcome": failure.reason.value}
     record = record_from_fit(fit, scan.source_format, scan.units)
     sole = record.scan.get("sole_mm")
-    measured = chart_of_record(record.landmarks, sole, "AG", record.chart)
+    measured = chart_of_record(record.landmarks, sole, "AG", record.chart, record.scan.get("sole_reason"))
     return {"outcome": "fit", **{m.point.name: m.value_mm for m in measured if m.point.name in GIRTHS + LENGTHS},
             "reasons": {m.point.name: m.reason for m in measured if m.reason and m.point.name in GIRTHS + LENGTHS},
             "uncertainty": {m.point.name: m.uncertainty_mm for m in measured if m.uncertainty_mm is not None},

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
+from app.geometry.anatomy.level_runs import running_median
 from app.geometry.anatomy.sole import Skin
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, group_median, mesh_section_segments
 
@@ -193,17 +194,6 @@ def _loop_girth(section: np.ndarray) -> float:
     return float(ConvexHull(loop).area)
 
 
-def _running_median(values: np.ndarray, planes: int) -> np.ndarray:
-    """(k,) the median of each run of ``planes`` (odd) neighbours of ``values`` (k,),
-    ignoring NaN (shorter runs at the ends; NaN where a run has no value)."""
-    half = planes // 2
-    windows = np.lib.stride_tricks.sliding_window_view(np.pad(values, half, constant_values=np.nan), planes)
-    out = np.full(len(values), np.nan)
-    some = np.isfinite(windows).any(axis=1)
-    out[some] = np.nanmedian(windows[some], axis=1)
-    return out
-
-
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None,
                   no_sole_reason: str | None = None) -> FootMeasures:
     """The foot length, cA and cY of the module docstring (mm), or why not: without a
@@ -250,7 +240,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     if not np.isfinite(window).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
-    window = _running_median(window, BALL_BAND_PLANES)
+    window = running_median(window, BALL_BAND_PLANES)
     best = int(np.nanargmax(window))
     ball = float(window[best])
     cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
@@ -300,6 +290,6 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
                                             "(a hole or a crop)")
     # the shortest of the loops, each read as the median of it and its neighbouring tilts:
     # the least of single loops is biased down by their noise, as the ball girth's largest up
-    smooth = np.where(np.isfinite(girths), _running_median(girths, INSTEP_BAND_PLANES), np.nan)
+    smooth = np.where(np.isfinite(girths), running_median(girths, INSTEP_BAND_PLANES), np.nan)
     best = int(np.nanargmin(smooth))
     return FootPoint("cY", float(smooth[best]), _xyz(centres[best]))

@@ -3,7 +3,9 @@ under a threshold (:func:`run_around`: the calf's crown in app.geometry.anatomy.
 their ends read between the samples (:func:`run_between_crossings`: the knee's level
 stretch in app.geometry.anatomy.knee_middle, the fold's peak in
 app.geometry.anatomy.gluteal_fold); a profile's gaps read between its samples
-(:func:`gaps_filled`: the back of the leg, the thigh's girth profile).
+(:func:`gaps_filled`: the back of the leg, the thigh's girth profile) and read as the
+median of each sample and its neighbours (:func:`running_median`: the foot's tape bands,
+the heel's back).
 
 Heights in mm along the calf frame's z; arrays (k,) evenly spaced by STEP_MM.
 """
@@ -18,6 +20,17 @@ import numpy as np
 STEP_MM = 2.0
 #: their slopes are read over +-SLOPE_HALF_MM of height, mm
 SLOPE_HALF_MM = 10.0
+
+
+def running_median(values: np.ndarray, planes: int) -> np.ndarray:
+    """(k,) the median of each run of ``planes`` (odd) neighbours of ``values`` (k,),
+    ignoring NaN (shorter runs at the ends; NaN where a run has no value)."""
+    half = planes // 2
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(values, half, constant_values=np.nan), planes)
+    out = np.full(len(values), np.nan)
+    some = np.isfinite(windows).any(axis=1)
+    out[some] = np.nanmedian(windows[some], axis=1)
+    return out
 
 
 def gaps_filled(heights: np.ndarray, profile: np.ndarray) -> np.ndarray:

@@ -28,20 +28,21 @@ found from the foot (its anterior cue).  Arrays: points (n, 3), faces (f, 3) or 
   mesh's vertices are joined skin (the clean-up removed its stray pieces:
   app.geometry.scan.cleanup).
 - **The heel turns under the sole.**  On a standing foot the back of the heel (the
-  calcaneal tuberosity under its pad) is furthest back 23-53 mm above the floor, and
-  below that the heel rounds forward into the sole by 14-46 mm (117 scans of 12
-  generated legs, every kind of benchmarks/sole.py; the 5 real legs of tests/data:
-  23-43 and 24-32 mm).  A scan cut through the foot above the heel's underside (a crop
-  at the midfoot) has its lowest point on the cut: there the heel's back still runs
-  down, furthest back 3-11 mm above the scan's lowest point on the corpus's 12 midfoot
-  crops (cut 30-50 mm above the sole), and a round heel (radius 25-30 mm) turns forward
-  by only 2-3 mm within 12 mm of its rearmost point (a crop's ragged first section
-  read up to 12).  So the sole is in the scan only where the heel's rearmost point lies
-  at least HEEL_REARMOST_ABOVE_MM above the lowest (halfway between the crops' 11 and
-  the standing feet's 23) and the heel's back just above the lowest lies at least
-  HEEL_TURN_MM forward of it (half the standing feet's least).  A crop within about 15
-  mm of the sole is not told from a foot standing on a platform that hid its sole: it
-  reads the lengths short by the crop's height.
+  calcaneal tuberosity under its pad) is furthest back 21-53 mm above the floor, and
+  below that the heel rounds forward into the sole by 12-34 mm (117 scans of 12
+  generated legs, every kind of benchmarks/sole.py, and the 5 real legs of tests/data,
+  21-43 and 19-27 mm; the back read as the median of each 2 mm slab's rearmost point and
+  its neighbours', so that a streak or a clump of strays in one slab does not read as
+  the heel).  A scan cut through the foot above the heel's underside (a crop at the
+  midfoot) has its lowest point on the cut: there the heel's back still runs down,
+  furthest back 3-11 mm above the scan's lowest point and 0-6 mm forward at it on the
+  corpus's 12 midfoot crops (cut 30-50 mm above the sole; a round heel of radius 25-30
+  mm turns forward by only 2-3 mm within 12 mm of its rearmost point).  So the sole is
+  in the scan only where the heel's rearmost point lies at least HEEL_REARMOST_ABOVE_MM
+  above the lowest and the heel's back just above the lowest lies at least HEEL_TURN_MM
+  forward of it, each halfway between the crops' largest and the standing feet's
+  least.  A crop within about 15 mm of the sole is not told from a foot standing on a
+  platform that hid its sole: it reads the lengths short by the crop's height.
 - **A foot standing flat has its forefoot on the heel's floor.**  The forefoot's lowest
   point lies within 12 mm of the heel's (above or below: the heel pad and the toes' pads
   differ) on the same legs standing; a foot pointed by an angle t lowers the ball of the
@@ -59,6 +60,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from app.geometry.anatomy.level_runs import running_median
 from app.geometry.sections import mesh_section_segments
 
 #: a cloud's stray point: fewer than STRAY_NEIGHBOURS within STRAY_RADIUS_SPACINGS median
@@ -84,10 +86,11 @@ HEEL_HALF_BAND_MM = 10.0
 HEEL_SPAN_MM = 60.0
 HEEL_SLAB_MM = 2.0
 #: the sole is in the scan only where the heel's rearmost point lies this far above the
-#: scan's lowest point (standing feet: 23-53 mm; crops 30-50 mm above the sole: 3-11) ...
-HEEL_REARMOST_ABOVE_MM = 17.0
-#: ... and the heel's back just above the lowest lies this far forward of it (standing: 14-46)
-HEEL_TURN_MM = 7.0
+#: scan's lowest point (standing feet: 21-53 mm; crops 30-50 mm above the sole: 3-11) ...
+HEEL_REARMOST_ABOVE_MM = 16.0
+#: ... and the heel's back just above the lowest lies this far forward of it (standing:
+#: 12-34 mm; the crops: 0-6)
+HEEL_TURN_MM = 8.5
 #: a forefoot this far below the heel is pointed (standing feet: within 12 mm), mm
 FLAT_FOOT_MM = 25.0
 
@@ -160,10 +163,15 @@ def _heel_back(heel: np.ndarray, faces: np.ndarray | None, middle_x: float, lowe
     keep = (np.abs(xy[:, 0] - middle_x) <= HEEL_HALF_BAND_MM) & (xy[:, 1] <= 0.0) & (slab >= 0) & (slab < n_slabs)
     rear = np.full(n_slabs, np.inf)
     np.minimum.at(rear, slab[keep], xy[keep, 1])
+    rear[~np.isfinite(rear)] = np.nan
     filled = np.flatnonzero(np.isfinite(rear))
     if len(filled) < 3:
         return None
-    rearmost = int(filled[np.argmin(rear[filled])])
+    # the median of each slab and its neighbours: a streak or a clump of strays the skin
+    # test let through reaches back in one or two slabs (a cloud's, 28 mm behind the heel
+    # 6 mm above its lowest point, read the heel as cut), the heel's back in all of them
+    rear = np.where(np.isfinite(rear), running_median(rear, 3), np.nan)
+    rearmost = int(filled[np.nanargmin(rear[filled])])
     return (rearmost + 0.5) * HEEL_SLAB_MM, float(rear[filled[0]] - rear[rearmost])
 
 
@@ -193,7 +201,7 @@ def find_sole(points: np.ndarray, faces: np.ndarray | None) -> Sole:
     if rearmost_above < HEEL_REARMOST_ABOVE_MM or turn < HEEL_TURN_MM:
         return Sole(None, f"the scan is cut through the foot above the heel's underside: the heel's back runs down to "
                           f"the scan's lowest point (furthest back {rearmost_above:.0f} mm above it, {turn:.0f} mm "
-                          f"forward at it; a standing heel rounds forward under it by 14 mm or more), so the sole and the "
+                          f"forward at it; a standing heel rounds forward under it by 12 mm or more), so the sole and the "
                           f"floor are not in the scan")
     front = np.flatnonzero(foot[:, 1] > 0.0)
     toe_index = skin.first(front, foot[front, 2])
