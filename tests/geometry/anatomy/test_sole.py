@@ -95,3 +95,27 @@ def test_a_pointed_foot_has_no_floor_and_its_foot_is_not_measured(foot, angle_de
     assert found.height_mm is None and "pointed" in found.reason and f"within {FLAT_FOOT_MM:.0f} mm" in found.reason
     measures = foot_measures(turned, faces, found.height_mm, found.reason)
     assert measures.ball_girth.value_mm is None and measures.ball_girth.reason == found.reason
+
+
+def test_a_scanners_streaks_are_neither_the_heels_back_nor_the_foots_ends(foot):
+    """Streaks (lines of 40 points leaving the skin, 30-80 mm long, as a scanner leaves
+    them) backwards off the heel a few mm above the sole and forwards off the toes: the
+    sole, the foot's length and cY stay within 1 mm of the clean cloud's - read as skin,
+    the heel's streak made the heel's back run down to the sole (no floor) and the toes'
+    lengthened the foot by the streak."""
+    points, faces = foot
+    cloud = _skin_cloud(points, faces)
+    clean_sole = find_sole(cloud, None).height_mm
+    clean = foot_measures(cloud, None, clean_sole)
+    heel = cloud[(cloud[:, 1] <= 0.0) & (np.abs(cloud[:, 2] - clean_sole - 5.0) < 1.0)]
+    toes = cloud[cloud[:, 2] < clean_sole + 30.0]
+    starts = [heel[np.argmin(heel[:, 1])], toes[np.argmax(toes[:, 1])]]
+    rng = np.random.default_rng(3)
+    streaks = [start + np.outer(rng.uniform(0.0, 60.0, 40), [0.0, direction, 0.0])
+               for start, direction in zip(starts, (-1.0, 1.0))]
+    streaked = np.vstack([cloud, *streaks])
+    sole = find_sole(streaked, None)
+    assert sole.reason is None and sole.height_mm == pytest.approx(clean_sole, abs=1.0)
+    measures = foot_measures(streaked, None, sole.height_mm)
+    assert measures.foot_length.value_mm == pytest.approx(clean.foot_length.value_mm, abs=1.0)
+    assert measures.heel_instep_girth.value_mm == pytest.approx(clean.heel_instep_girth.value_mm, abs=1.0)
