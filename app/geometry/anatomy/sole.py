@@ -133,8 +133,13 @@ class Skin:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
         rising (its index into the points), None when there are not so many; the spacing
         is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
-        order = index[np.argsort(key, kind="stable")]
-        near = order[:SPACING_SAMPLE]
+        if len(index) <= skip:
+            return None
+        if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
+            return int(index[np.argpartition(key, skip)[skip]])
+        first = np.argpartition(key, min(SPACING_SAMPLE, len(key) - 1))[:SPACING_SAMPLE]
+        order = index[first[np.argsort(key[first], kind="stable")]]
+        near = order
         found = 0
         for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
@@ -142,6 +147,11 @@ class Skin:
             if found + len(skin) > skip:
                 return int(batch[skin[skip - found]])
             found += len(skin)
+        if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
+            rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
+            skin = np.flatnonzero(self.of(index[rest], near))
+            if found + len(skin) > skip:
+                return int(index[rest[skin[skip - found]]])
         return None
 
 
