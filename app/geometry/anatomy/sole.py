@@ -107,8 +107,8 @@ class Sole:
 class Skin:
     """Which of a scan's points are skin (module docstring), asked of the few points that
     decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
-    STRAY_RADIUS_SPACINGS median spacings of the points round them.  ``points`` (n, 3)
-    mm; ``is_mesh``: they are a mesh's vertices."""
+    STRAY_RADIUS_SPACINGS median spacings of the points round them and not on a streak
+    (STREAK_SHARE).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices."""
 
     def __init__(self, points: np.ndarray, is_mesh: bool):
         self.points = points
@@ -137,19 +137,18 @@ class Skin:
             return None
         if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
             return int(index[np.argpartition(key, skip)[skip]])
-        first = np.argpartition(key, min(SPACING_SAMPLE, len(key) - 1))[:SPACING_SAMPLE]
-        order = index[first[np.argsort(key[first], kind="stable")]]
-        near = order
+        leading = np.argpartition(key, min(SPACING_SAMPLE, len(key) - 1))[:SPACING_SAMPLE]
+        order = index[leading[np.argsort(key[leading], kind="stable")]]  # the spacing is theirs
         found = 0
         for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
-            skin = np.flatnonzero(self.of(batch, near))
+            skin = np.flatnonzero(self.of(batch, order))
             if found + len(skin) > skip:
                 return int(batch[skin[skip - found]])
             found += len(skin)
         if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
             rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
-            skin = np.flatnonzero(self.of(index[rest], near))
+            skin = np.flatnonzero(self.of(index[rest], order))
             if found + len(skin) > skip:
                 return int(index[rest[skin[skip - found]]])
         return None
@@ -159,10 +158,10 @@ def _heel_back(heel: np.ndarray, faces: np.ndarray | None, middle_x: float, lowe
     """How far above ``lowest_mm`` the heel's back is furthest back, and how far forward
     of that it lies just above the lowest (mm); None where fewer than 3 of its heights
     hold skin.  The back at a height is the least y, behind B (y <= 0) and within
-    HEEL_HALF_BAND_MM of ``middle_x``, of a mesh's exact plane section there (``heel`` (k, 3) its vertices,
-    ``faces`` (f, 3): a mesh's vertices alone are 3-4 mm apart and a crop's ragged edge
-    moved its lowest ones forward, reading a cut heel as one that turns under) or of a
-    cloud's points (``faces`` None) in the HEEL_SLAB_MM slab above it."""
+    HEEL_HALF_BAND_MM of ``middle_x``, of a mesh's exact plane section there (``heel``
+    (k, 3) its vertices, ``faces`` (f, 3): a mesh's vertices alone are 3-4 mm apart and
+    a crop's ragged edge moved its lowest ones forward, reading a cut heel as one that
+    turns under) or of a cloud's points (``faces`` None) in the HEEL_SLAB_MM slab above."""
     n_slabs = int(np.ceil(HEEL_SPAN_MM / HEEL_SLAB_MM))
     if faces is not None:
         plane, segments = mesh_section_segments(heel, faces, lowest_mm + HEEL_SLAB_MM * (np.arange(n_slabs) + 0.5))
@@ -192,14 +191,15 @@ def find_sole(points: np.ndarray, faces: np.ndarray | None) -> Sole:
     if len(foot):  # where the heel's and the forefoot's lowest skin can lie, strays included
         foot = foot[foot[:, 2] < float(foot[:, 2].min()) + HEEL_SPAN_MM + STRAY_REACH_MM]
     behind = np.flatnonzero(foot[:, 1] <= 0.0)
-    skin = Skin(foot, faces is not None and len(faces) > 0)
+    is_mesh = faces is not None and len(faces) > 0
+    skin = Skin(foot, is_mesh)
     heel_index = skin.first(behind, foot[behind, 2]) if len(behind) >= 10 else None
     if heel_index is None:
         return Sole(None, "the scan has no heel behind and below the ankle to stand on")
     lowest = float(foot[heel_index, 2])
     near = behind[(foot[behind, 2] >= lowest) & (foot[behind, 2] < lowest + HEEL_SPAN_MM)]
     middle_x = float(np.median(foot[near[foot[near, 2] < lowest + HEEL_SPAN_MM / 3], 0]))
-    if skin.tree is None and faces is not None and len(faces):
+    if faces is not None and is_mesh:
         low_faces = faces[points[faces, 2].min(axis=1) < lowest + HEEL_SPAN_MM]  # the planes cut nothing higher
         back = _heel_back(points, low_faces, middle_x, lowest)
     else:
