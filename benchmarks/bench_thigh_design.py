@@ -36,8 +36,7 @@ from app.geometry.garment.fabric import Fabric  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
 from app.services.designs import compute_design  # noqa: E402
-from benchmarks.corpus.cases import CaseSpec, build_case  # noqa: E402
-from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
+from benchmarks.corpus.cases import build_case, leg_rescans  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"
 KINDS = ("mesh_clean", "cloud_noise", "two_legs")
@@ -83,16 +82,12 @@ def design_row(name: str, scan, side: str | None) -> dict:
 
 
 def main(legs: int = 8, seed: int = 5) -> dict:
-    rng = np.random.default_rng(seed)
-    n_subjects = len(ansur_subjects())
     rows = []
-    for leg in range(legs):
-        subject, leg_seed = int(rng.integers(n_subjects)), int(rng.integers(2**31))
-        for kind in KINDS:
-            case = build_case(CaseSpec(f"leg{leg:02d}-{kind}", kind, int(rng.integers(2**31)), subject, leg_seed))
-            scan = load_scan(case.data, file_type=case.file_type, units=case.units)
-            rows.append(design_row(case.spec.case_id, scan, case.side))
-            print(rows[-1]["scan"], rows[-1]["outcome"], rows[-1].get("verdict", rows[-1].get("detail", "")), flush=True)
+    for _, spec in leg_rescans(legs, seed, KINDS):
+        case = build_case(spec)
+        scan = load_scan(case.data, file_type=case.file_type, units=case.units)
+        rows.append(design_row(case.spec.case_id, scan, case.side))
+        print(rows[-1]["scan"], rows[-1]["outcome"], rows[-1].get("verdict", rows[-1].get("detail", "")), flush=True)
     real = [design_row("bodyparts3d_right_leg.stl", load_scan(ROOT / "tests" / "data" / "real" / "bodyparts3d_right_leg.stl"), None)]
     result = {"legs": legs, "seed": seed, "rows": rows, "real": real}
     RESULTS.mkdir(exist_ok=True)

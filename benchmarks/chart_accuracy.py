@@ -37,8 +37,7 @@ from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: 
 from app.geometry.garment.measuring_points import chart_of_record  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
-from benchmarks.corpus.cases import CaseSpec, build_case  # noqa: E402
-from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
+from benchmarks.corpus.cases import build_case, leg_rescans  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -112,20 +111,18 @@ def _stats(values: list[float]) -> dict:
 
 
 def main(legs: int = 8, seed: int = 11) -> dict:
-    rng = np.random.default_rng(seed)
-    n_subjects = len(ansur_subjects())
     started = time.perf_counter()
-    per_leg = []
-    for leg in range(legs):
-        subject, leg_seed = int(rng.integers(n_subjects)), int(rng.integers(2**31))
-        scans = {}
-        for kind in ("mesh_clean",) + RESCAN_KINDS:
-            case = build_case(CaseSpec(f"leg{leg:02d}-{kind}", kind, int(rng.integers(2**31)), subject, leg_seed))
-            scan = load_scan(case.data, file_type=case.file_type, units=case.units)
-            scans[kind] = chart_points(scan, case.side)
-        per_leg.append({"leg": leg, "subject": subject, "scans": scans})
-        print(f"leg {leg}: " + ", ".join(f"{k} {v['outcome']}" for k, v in scans.items() if v["outcome"] != "fit") or "all fit",
-              file=sys.stderr)
+    per_leg: list[dict] = []
+    for leg, spec in leg_rescans(legs, seed, ("mesh_clean",) + RESCAN_KINDS):
+        if spec.kind == "mesh_clean":
+            per_leg.append({"leg": leg, "subject": spec.subject_index, "scans": {}})
+        case = build_case(spec)
+        scan = load_scan(case.data, file_type=case.file_type, units=case.units)
+        scans = per_leg[-1]["scans"]
+        scans[spec.kind] = chart_points(scan, case.side)
+        if spec.kind == RESCAN_KINDS[-1]:
+            print(f"leg {leg}: " + ", ".join(f"{k} {v['outcome']}" for k, v in scans.items() if v["outcome"] != "fit")
+                  or "all fit", file=sys.stderr)
     errors: dict[str, list[float]] = {p: [] for p in GIRTHS + LENGTHS}
     by_kind: dict[str, dict[str, list[float]]] = {k: {"girths": [], "lengths": []} for k in RESCAN_KINDS}
     ranges: dict[str, list[float]] = {p: [] for p in GIRTHS + LENGTHS}

@@ -32,8 +32,7 @@ from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_placed_leg  # noqa: E402
 from app.geometry.placement import replace_leg  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
-from benchmarks.corpus.cases import CaseSpec, build_case  # noqa: E402
-from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
+from benchmarks.corpus.cases import build_case, leg_rescans  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"
 STANDING = ("cloud", "cloud_noise", "cloud_outliers", "cloud_uneven", "cloud_holes", "vertex_cloud", "floor",
@@ -61,17 +60,12 @@ def sole_row(name: str, kind: str, scan, side: str | None) -> dict:
 
 
 def main(legs: int = 6, seed: int = 21) -> dict:
-    rng = np.random.default_rng(seed)
-    n_subjects = len(ansur_subjects())
     started = time.perf_counter()
     rows = []
-    for leg in range(legs):
-        subject, leg_seed = int(rng.integers(n_subjects)), int(rng.integers(2**31))
-        for kind in ("mesh_clean",) + STANDING + NO_FLOOR:
-            case = build_case(CaseSpec(f"leg{leg:02d}-{kind}", kind, int(rng.integers(2**31)), subject, leg_seed))
-            scan = load_scan(case.data, file_type=case.file_type, units=case.units)
-            rows.append(sole_row(case.spec.case_id, kind, scan, case.side) | {"leg": leg})
-        print(f"leg {leg} done", file=sys.stderr)
+    for leg, spec in leg_rescans(legs, seed, ("mesh_clean",) + STANDING + NO_FLOOR):
+        case = build_case(spec)
+        scan = load_scan(case.data, file_type=case.file_type, units=case.units)
+        rows.append(sole_row(spec.case_id, spec.kind, scan, case.side) | {"leg": leg})
     result = {"legs": legs, "seed": seed, "seconds": time.perf_counter() - started, "rows": rows}
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "sole.json").write_text(json.dumps(result, indent=1))

@@ -111,6 +111,20 @@ def corpus_specs(n: int, seed: int = 7) -> list[CaseSpec]:
     return specs
 
 
+def leg_rescans(legs: int, seed: int, kinds: tuple[str, ...]):
+    """(leg index, spec) for ``legs`` generated legs drawn from ``seed``, each scanned as
+    every one of ``kinds`` in turn: re-scans of one leg (its subject and ``leg_seed``
+    shared, each scan's own pose, units and degradation).  The draws, in order: a leg's
+    subject and leg seed, then one seed per kind (benchmarks/chart_accuracy.py,
+    bench_thigh_design.py and sole.py read their legs this way)."""
+    rng = np.random.default_rng(seed)
+    n_subjects = len(ansur_subjects())
+    for leg in range(legs):
+        subject, leg_seed = int(rng.integers(n_subjects)), int(rng.integers(2**31))
+        for kind in kinds:
+            yield leg, CaseSpec(f"leg{leg:02d}-{kind}", kind, int(rng.integers(2**31)), subject, leg_seed)
+
+
 def _write(mesh: trimesh.Trimesh | None, cloud: np.ndarray | None, rng: np.random.Generator) -> tuple[bytes, str]:
     if cloud is not None:
         if rng.random() < 0.5:
