@@ -4,7 +4,15 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull
 
-from app.geometry.sections import polygon_perimeter, ray_angles, slice_mesh_polar, tape_band_girths, tape_girths
+from app.geometry.sections import (
+    edge_crossings,
+    neighbour_edges,
+    polygon_perimeter,
+    ray_angles,
+    slice_mesh_polar,
+    tape_band_girths,
+    tape_girths,
+)
 from app.geometry.sections.cloud import slice_points_polar
 from app.geometry.sections.polar import star_hull_perimeters
 from tests.phantoms import cylinder, tube_mesh
@@ -151,3 +159,32 @@ def test_a_clouds_section_is_the_same_read_alone_or_with_other_heights():
         np.testing.assert_allclose(together.centroids_mm[row], alone.centroids_mm[0], rtol=0, atol=1e-9)
         np.testing.assert_allclose(together.radii_mm[row], alone.radii_mm[0], rtol=0, atol=1e-9)
         assert abs(together.tape_perimeters()[row] - alone.tape_perimeters()[0]) < 1e-9
+
+
+def test_a_sparse_clouds_neighbour_graph_crosses_a_slanted_plane_on_the_skin():
+    """A cylinder of radius 40 mm sampled at 2,500 random points (the graph's edges 7.4
+    mm long, median), its axis tilted 50 degrees from z: the plane z = 0 cuts it in an
+    ellipse, at a slant.  The crossings of the 10-nearest-neighbour graph lie within a
+    chord's sagitta of the skin (measured: 0.04 mm median, 0.44 max) and their hull is the
+    ellipse's perimeter within 1% (0.2%); the points of a slab an edge thick, projected,
+    spread across the skin's run through the slab (+8%)."""
+    rng = np.random.default_rng(2)
+    angle, along = rng.uniform(0.0, 2 * np.pi, 2_500), rng.uniform(-150.0, 150.0, 2_500)
+    tilt = np.radians(50.0)
+    axis, across = np.array([np.sin(tilt), 0.0, np.cos(tilt)]), np.array([np.cos(tilt), 0.0, -np.sin(tilt)])
+    side = np.array([0.0, 1.0, 0.0])
+    points = (along[:, None] * axis + 40.0 * np.cos(angle)[:, None] * across + 40.0 * np.sin(angle)[:, None] * side)
+    edges = neighbour_edges(points)
+    assert len(edges) == len(np.unique(edges, axis=0)) and (edges[:, 0] < edges[:, 1]).all()
+    plane, crossings = edge_crossings(points, edges, np.array([-50.0, 0.0]))
+    on_plane = np.column_stack([crossings[plane == 1], np.zeros((plane == 1).sum())])
+    off_axis = np.linalg.norm(on_plane - np.outer(on_plane @ axis, axis), axis=1)  # distance from the cylinder's axis
+    assert np.median(np.abs(off_axis - 40.0)) < 0.2 and np.abs(off_axis - 40.0).max() < 1.0
+    a, b = 40.0 / np.cos(tilt), 40.0
+    h = ((a - b) / (a + b)) ** 2
+    ellipse = np.pi * (a + b) * (1 + 3 * h / (10 + np.sqrt(4 - 3 * h)))  # Ramanujan's, 1e-5 relative here
+    assert ConvexHull(crossings[plane == 1]).area == pytest.approx(ellipse, rel=0.01)
+    spacing = float(np.median(np.linalg.norm(points[edges[:, 0]] - points[edges[:, 1]], axis=1)))
+    slab = points[np.abs(points[:, 2]) < spacing]
+    assert ConvexHull(slab[:, :2]).area > 1.03 * ellipse
+    assert not len(neighbour_edges(points[:1]))

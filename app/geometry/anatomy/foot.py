@@ -25,6 +25,10 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
+- **A cloud's sections** are read on its neighbour graph
+  (:mod:`app.geometry.sections.cloud_edges`): where the edges to each point's nearest
+  neighbours cross the plane.  A slab of points projected onto the plane read cY 4-5 mm
+  long and cA 2-4 mm short on a body mesh's vertices (0.4-11 mm apart on one foot).
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
   nor its heel's corner (:class:`app.geometry.anatomy.sole.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
@@ -38,11 +42,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull, cKDTree
+from scipy.spatial import ConvexHull
 
 from app.geometry.anatomy.level_runs import running_median
-from app.geometry.anatomy.sole import Skin
-from app.geometry.sections import TAPE_BAND_OFFSETS_MM, group_median, mesh_section_segments
+from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM, Skin
+from app.geometry.sections import (
+    TAPE_BAND_OFFSETS_MM,
+    edge_crossings,
+    group_median,
+    largest_gap,
+    mesh_section_segments,
+    neighbour_edges,
+)
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -54,7 +65,7 @@ BALL_STEP_MM = 2.0
 #: the ball girth is read as a tape band is: the median of the planes BALL_STEP_MM apart
 #: across a tape's width round each (app.geometry.sections.TAPE_BAND_OFFSETS_MM, whose
 #: planes are as far apart: +-4 mm, 5 planes).  The largest of single-plane girths is
-#: biased up by their noise (a cloud's slab reads each plane 1-2 mm wide of the mesh's),
+#: biased up by their noise (a noisy cloud reads each plane 1-2 mm wide of the mesh's),
 #: the largest of band medians much less; at a maximum the girth changes only to second
 #: order across the band
 BALL_BAND_PLANES = len(TAPE_BAND_OFFSETS_MM)
@@ -66,6 +77,8 @@ INSTEP_STEP_DEG = 2.5
 INSTEP_WINDOW = (0.15, 0.55)
 #: cY is read over this many neighbouring tilts (+-2.5 degrees), as cA over its band
 INSTEP_BAND_PLANES = 3
+#: the heel's middle (across the foot) is the median of the points this far from its end, mm
+HEEL_MIDDLE_SPAN_MM = 40.0
 #: an end whose section 6 mm inside is above this share of the ball girth was cut, not tapered
 END_TAPER_SHARE = 0.7
 END_INSET_MM = 6.0
@@ -73,9 +86,11 @@ END_INSET_MM = 6.0
 #: see the scan below this height (mm above B; the loop tops out 20-50 mm above B)
 INSTEP_TOP_MM = 80.0
 INSTEP_TOP_MARGIN_MM = 10.0
-#: a cloud's loop: the slab's half thickness, mm, and the share of empty angle bins allowed
-LOOP_SLAB_MM = 2.0
-LOOP_MAX_EMPTY = 0.3
+#: the widest run of empty angle bins a loop may have, degrees (0.3 of the turn: a hole,
+#: the flat sole the floor's removal took - 80-110 degrees round the forefoot's centre -
+#: which the tape bridges; wider is no closed section).  Bins left empty one here and one
+#: there are the sampling's (about 3 points a bin: 5% of them empty), not a gap
+LOOP_MAX_GAP_DEG = 108.0
 #: the loop's radii are averaged over this many degrees each side (5 degrees is 5-9 mm of
 #: a foot's loop: the heel's ~30 mm curvature radius survives it)
 LOOP_SMOOTH_DEG = 5.0
@@ -114,50 +129,59 @@ def _not_measured(reason: str) -> FootMeasures:
                         FootPoint("cY", None, reason=reason))
 
 
-def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float) -> tuple[np.ndarray, np.ndarray | None]:
-    """The part of the scan below ``z_max`` (a mesh keeps the faces wholly below)."""
+def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float,
+           edges: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The part of the scan below ``z_max``: a mesh keeps the faces wholly below and their
+    vertices; a cloud its points below and, given its neighbour graph's ``edges`` (e, 2),
+    the edges between them (renumbered; None when not given)."""
     if faces is None or not len(faces):
-        return points[points[:, 2] < z_max], None
+        keep = points[:, 2] < z_max
+        if edges is None:
+            return points[keep], None, None
+        index = np.cumsum(keep) - 1
+        return points[keep], None, index[edges[keep[edges].all(axis=1)]]
     keep = (points[faces, 2] < z_max).all(axis=1)
     used = np.unique(faces[keep])
     index = np.full(len(points), -1)
     index[used] = np.arange(len(used))
-    return points[used], index[faces[keep]]
+    return points[used], index[faces[keep]], None
 
 
-def _cloud_slab_mm(points: np.ndarray, faces: np.ndarray | None) -> float:
-    """Half thickness (mm) of a cloud's section slabs: LOOP_SLAB_MM, or the cloud's median
-    point spacing where larger (a sparse cloud's slab must hold a whole ring); 0 for a mesh
-    (its sections are exact)."""
-    if faces is not None and len(faces):
-        return 0.0
-    return max(LOOP_SLAB_MM, float(np.median(cKDTree(points).query(points, k=2)[0][:, 1])))
+def _cloud_edges(points: np.ndarray, faces: np.ndarray | None) -> np.ndarray | None:
+    """A cloud's neighbour graph (e, 2) its sections are read on
+    (:func:`app.geometry.sections.neighbour_edges`); None for a mesh (its sections are
+    exact)."""
+    return None if faces is not None and len(faces) else neighbour_edges(points)
 
 
-def _sections(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
-              offsets: np.ndarray, slab_mm: float) -> list[np.ndarray]:
-    """The sections (n_k, 2) of the planes {p : (p - origin) . basis[2] = offset}, in the
-    in-plane coordinates basis[0], basis[1] (basis (3, 3) orthonormal rows): a mesh's exact
-    plane-section segment ends (:func:`app.geometry.sections.mesh_section_segments`), a
-    cloud's points within ``slab_mm`` (:func:`_cloud_slab_mm`) of the plane."""
+def _sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
+              basis: np.ndarray, offsets: np.ndarray) -> list[np.ndarray]:
+    """The sections (n_k, 2) of the planes {p : (p - origin) . basis[2] = offset},
+    ``offsets`` (k,) ascending, in the in-plane coordinates basis[0], basis[1] (basis (3, 3)
+    orthonormal rows): a mesh's exact plane-section segment ends
+    (:func:`app.geometry.sections.mesh_section_segments`), a cloud's crossings of its
+    neighbour graph's ``edges`` (e, 2) (:func:`app.geometry.sections.edge_crossings`)."""
     q = (points - origin) @ basis.T
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(q, faces, offsets)
         return [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
-    return [q[np.abs(q[:, 2] - offset) < slab_mm, :2] for offset in offsets]
+    if edges is None:
+        raise ValueError("a cloud's sections are read on its neighbour graph: pass its edges")
+    plane, crossings = edge_crossings(q, edges, offsets)
+    return [crossings[plane == k] for k in range(len(offsets))]
 
 
-def _plane_girths(points: np.ndarray, faces: np.ndarray | None, origin: np.ndarray, basis: np.ndarray,
-                  offsets: np.ndarray, slab_mm: float) -> np.ndarray:
+def _plane_girths(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
+                  basis: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """Tape girths (k,) mm in the planes of :func:`_sections`, NaN where no closed section
     (:func:`_loop_girth`)."""
-    return np.array([_loop_girth(section) for section in _sections(points, faces, origin, basis, offsets, slab_mm)])
+    return np.array([_loop_girth(section) for section in _sections(points, faces, edges, origin, basis, offsets)])
 
 
 def _loop_girth(section: np.ndarray) -> float:
     """The tape girth (mm) of a section's points (n, 2): read as their median radius in
-    bins of angle round their centroid (about 3 points a bin, at most 360; more than
-    LOOP_MAX_EMPTY of them empty is no closed section: NaN), smoothed over
+    bins of angle round their centroid (about 3 points a bin, at most 360; a run of empty
+    bins wider than LOOP_MAX_GAP_DEG is no closed section: NaN), smoothed over
     +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
     excursions); the tape is the convex hull of the filled bins' points.  An empty run of
     bins is bridged by the hull's straight chord, as a tape bridges it: a sole the floor's
@@ -176,7 +200,7 @@ def _loop_girth(section: np.ndarray) -> float:
     index = np.minimum(((angle + np.pi) * (bins / (2 * np.pi))).astype(np.int64), bins - 1)
     median, count = group_median(index, radius, bins)
     filled = count > 0
-    if filled.mean() < 1 - LOOP_MAX_EMPTY:
+    if largest_gap(filled[None])[0][0] > LOOP_MAX_GAP_DEG:
         return float("nan")
     # each bin's point at its points' mean angle (a wide bin's few points are not at its centre)
     centres = np.bincount(index, weights=angle, minlength=bins) / np.maximum(count, 1)
@@ -201,9 +225,12 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     none) or that the foot is not in the scan."""
     if sole_mm is None:
         return _not_measured(no_sole_reason or "the foot is not in the scan")
+    # the part of the scan the heel-instep loop is read on, and a cloud's graph over it, once
+    instep, instep_faces, _ = _below(points, faces, INSTEP_TOP_MM)
+    instep_edges = _cloud_edges(instep, instep_faces)
     # the foot: below halfway from the sole to B (the forefoot is 40-55 mm high, B 100-150
     # mm above the sole; the shank's back above the heel would cut the heel's end planes)
-    below_b, below_faces = _below(points, faces, 0.5 * sole_mm)
+    below_b, below_faces, edges = _below(instep, instep_faces, 0.5 * sole_mm, instep_edges)
     footprint = below_b[below_b[:, 2] < sole_mm + FOOTPRINT_MM]
     if len(footprint) < 50:
         return _not_measured("the scan has too few points near the sole to find the foot")
@@ -232,10 +259,9 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     origin = sole_point - (sole_point @ axis) * axis
     lo, hi = heel_t + BALL_WINDOW[0] * length, heel_t + BALL_WINDOW[1] * length
     offsets = np.arange(lo, hi + 1e-9, BALL_STEP_MM)
-    slab = _cloud_slab_mm(below_b, below_faces)  # once for the planes across the foot
-    window = _plane_girths(below_b, below_faces, origin, basis, offsets, slab)
-    ends = _plane_girths(below_b, below_faces, origin, basis, np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM]),
-                         slab)
+    window = _plane_girths(below_b, below_faces, edges, origin, basis, offsets)
+    ends = _plane_girths(below_b, below_faces, edges, origin, basis,
+                         np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM]))
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis))
     if not np.isfinite(window).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
@@ -250,13 +276,12 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
                             FootPoint("cY", None, reason=reason))
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
-    instep, instep_faces = _below(points, faces, INSTEP_TOP_MM)
     return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
-                                                                 _cloud_slab_mm(instep, instep_faces)))
+                                                                 instep_edges))
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                 heel_t: float, length: float, slab_mm: float) -> FootPoint:
+                 heel_t: float, length: float, edges: np.ndarray | None) -> FootPoint:
     """cY: the shortest loop round the heel's posterior-inferior point and over the front
     of the ankle, among the planes through that point containing the foot's transverse
     axis tilted INSTEP_TILT_DEG from the floor whose loop's far end lies over the ankle
@@ -265,7 +290,15 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     one runs up the shank, out of the part of the scan it is measured on)."""
     up = np.array([0.0, 0.0, 1.0])
     back_down = -(axis + up) / np.sqrt(2.0)
-    corner = Skin(points, faces is not None).first(np.arange(len(points)), -(points @ back_down))
+    # on the heel's midline: the planes contain the transverse axis, so where across the
+    # heel the point lies does not matter, and a stray point beside the heel (a floor
+    # point at the sole's level, 36 mm to its side, read cY 11 mm short) is not in the band
+    along, side = points @ axis, points @ across
+    heel_side = side[along < heel_t + HEEL_MIDDLE_SPAN_MM]
+    if not len(heel_side):
+        return FootPoint("cY", None, reason="the heel is not in the scan")
+    band = np.flatnonzero(np.abs(side - np.median(heel_side)) <= HEEL_HALF_BAND_MM)
+    corner = Skin(points, faces is not None).first(band, -(points[band] @ back_down))
     if corner is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
     heel = points[corner]
@@ -275,7 +308,7 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     for k, tilt in enumerate(tilts):  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
-        section = _sections(points, faces, heel, basis, np.array([0.0]), slab_mm)[0]  # once per plane
+        section = _sections(points, faces, edges, heel, basis, np.array([0.0]))[0]  # once per plane
         if not len(section):
             continue
         end = section[int(np.argmax(section[:, 1]))]  # the loop's far end, along the rising direction

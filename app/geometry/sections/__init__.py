@@ -3,8 +3,9 @@
 :mod:`~app.geometry.sections.polar` holds the type (:class:`PolarSections`) and its
 plane geometry; :mod:`~app.geometry.sections.mesh` slices a mesh exactly (plane-section
 segments, rays from the centroid), :mod:`~app.geometry.sections.cloud` a point cloud
-(robust polar fits of slabs).  :func:`slice_polar` and :func:`tape_girths` choose
-between the two.  Units: mm.
+(robust polar fits of slabs); :mod:`~app.geometry.sections.cloud_edges` reads a cloud's
+plane sections on its neighbour graph (the foot's oblique loops).  :func:`slice_polar`
+and :func:`tape_girths` choose between mesh and cloud.  Units: mm.
 """
 
 from __future__ import annotations
@@ -12,12 +13,13 @@ from __future__ import annotations
 import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
+from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges
 from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
-from app.geometry.sections.polar import PolarSections, polygon_centroid, polygon_perimeter, ray_angles
+from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "group_median", "mesh_section_segments", "polygon_centroid",
-           "polygon_perimeter", "ray_angles",
-           "slice_mesh_polar", "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
+__all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "edge_crossings", "group_median", "largest_gap", "mesh_section_segments",
+           "neighbour_edges", "polygon_centroid", "polygon_perimeter", "ray_angles", "slice_mesh_polar",
+           "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is
 #: read over the planes TAPE_BAND_OFFSETS_MM from it (mm) and the median taken.  At a

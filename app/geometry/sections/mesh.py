@@ -26,19 +26,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, ray_angles
+from app.geometry.sections.polar import PolarSections, largest_gap, plane_pairs, polygon_centroid, ray_angles
 
 #: a section whose rays hit the contour less often than this is treated as missing
 MIN_RAY_COVERAGE = 0.5
-
-
-def _plane_pairs(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Expand per-item plane ranges [lo, hi) into (item, plane) index pairs."""
-    count = np.maximum(hi - lo, 0)
-    item = np.repeat(np.arange(len(lo)), count)
-    start = np.cumsum(count) - count
-    plane = lo[item] + (np.arange(item.size) - start[item])
-    return item, plane
 
 
 def mesh_section_segments(
@@ -71,7 +62,7 @@ def mesh_section_segments(
     lo = np.minimum(np.minimum(first, second), third)
     hi = np.maximum(np.maximum(first, second), third)
     crossing = np.flatnonzero(hi > lo)
-    pair_face, plane = _plane_pairs(lo[crossing].astype(np.int64), hi[crossing].astype(np.int64))
+    pair_face, plane = plane_pairs(lo[crossing].astype(np.int64), hi[crossing].astype(np.int64))
     if plane.size == 0:
         return plane, np.empty((0, 2, 2))
     corners = faces[crossing[pair_face]]  # (s, 3)
@@ -143,7 +134,7 @@ def _cast_rays(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray, n_angl
     j_lo = np.ceil(theta_lo / step - 1e-12).astype(np.int64)
     j_hi = np.floor((theta_lo + np.abs(dtheta)) / step + 1e-12).astype(np.int64)
     j_hi = np.where(np.abs(dtheta) < 0.5 * np.pi, j_hi, j_lo - 1)  # skip segments through the centre
-    seg_idx, ray = _plane_pairs(j_lo, j_hi + 1)
+    seg_idx, ray = plane_pairs(j_lo, j_hi + 1)
     phi = ray * step
     dx, dy = np.cos(phi), np.sin(phi)
     ax, ay = a[seg_idx, 0], a[seg_idx, 1]

@@ -213,3 +213,14 @@ def star_hull_perimeters(radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
         count = keep.sum(axis=1)
         order = np.argsort(~keep, axis=1, kind="stable")[:, : count.max()]  # the kept first, in order
         x, y = np.take_along_axis(x, order, axis=1), np.take_along_axis(y, order, axis=1)
+
+
+def plane_pairs(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Expand per-item plane ranges [lo, hi) (each (m,) int) into (item, plane) index
+    pairs, each (s,) int: the planes a triangle or an edge crosses, the rays a segment
+    spans."""
+    count = np.maximum(hi - lo, 0)
+    item = np.repeat(np.arange(len(lo)), count)
+    start = np.cumsum(count) - count
+    plane = lo[item] + (np.arange(item.size) - start[item])
+    return item, plane

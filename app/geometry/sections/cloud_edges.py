@@ -1,0 +1,81 @@
+"""A point cloud's plane sections read on its neighbour graph: where the edges joining
+each point to its nearest neighbours cross the plane, linearly interpolated.
+
+A cloud has no triangles, and a plane holds none of its points.  A slab of points within
+a half thickness of the plane, projected onto it, reads a loop as the hull of every
+section the slab spans: on a sparse or uneven cloud (a body mesh's vertices, 0.4-11 mm
+apart on one foot) the slab must be as thick as the widest spacing to close the loop, and
+where the plane cuts the skin at a slant - the heel, the instep - the loop grows by the
+skin's run across the slab (cY read 4-5 mm long on such clouds, and the ball girth cA
+2-4 mm short where the slab's few points left whole bins empty).
+
+The k-nearest-neighbour graph stands in for the mesh the scanner did not send: on a
+surface sampled finer than its thickness and its curvature radius, a point's nearest
+neighbours are its neighbours on the skin, and an edge between two of them is a chord
+of the skin.  A plane crossing an edge crosses the skin between its ends: the crossing,
+interpolated linearly along the edge, lies on the chord - within the chord's sagitta
+(length^2 / 8R: 0.3 mm for a 9 mm edge on the heel's ~30 mm radius) of the skin - and
+exactly in the plane.  This is the section a mesh gives
+(:func:`app.geometry.sections.mesh.mesh_section_segments` crosses a triangle's two
+edges the same way), with every neighbour pair for the triangles.  Edges across the
+inside of the limb need a point's :data:`NEIGHBOURS` nearest to lie across its
+thickness: the foot is 20 mm thick at the toes and 40-60 at the ball, more than the
+neighbours' reach on any scan the fit takes (a cloud needs 1 point per mm of the leg's
+height, app.geometry.sections.cloud.MIN_CLOUD_POINTS_PER_MM).
+
+Units: mm.  Arrays: points (n, 3) in the frame whose z the heights are, edges (e, 2).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse import triu as sparse_triu
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
+
+from app.geometry.sections.polar import plane_pairs
+
+#: each point is joined to this many nearest neighbours (the graph keeps the union of
+#: the pairs, each once).  On a tessellation's vertices a point has ~6 neighbours on the
+#: skin; 10 leaves no loop open where the tessellation is stretched (6 read cY up to 0.9 mm
+#: off the mesh's on 13 sparse vertex clouds, 10 within 0.8 mm)
+NEIGHBOURS = 10
+#: the skin is the graph's components holding at least this share of the points (on 134
+#: generated foot clouds of 10 kinds the skin was one component of 98.9-100% of them; a
+#: scanner's strays - ghosts, floor points, streaks - were components of 1-31 points)
+MIN_SKIN_SHARE = 0.05
+
+
+def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS) -> np.ndarray:
+    """(e, 2) int, lower index first: the skin's edges among ``points`` (n, 3) - the pairs
+    each among the other's ``neighbours`` nearest (the mutual k-nearest-neighbour graph)
+    in the graph's components of at least :data:`MIN_SKIN_SHARE` of the points (module
+    docstring); empty for fewer than two points."""
+    n = len(points)
+    k = min(neighbours, n - 1)
+    if k < 1:
+        return np.empty((0, 2), dtype=np.int64)
+    _, nearest = cKDTree(points).query(points, k=k + 1)
+    near, far = np.repeat(np.arange(n), k), nearest[:, 1:].ravel()  # a point is its own nearest
+    chosen = coo_matrix((np.ones(n * k), (near, far)), shape=(n, n)).tocsr()
+    mutual = sparse_triu(chosen.multiply(chosen.T), k=1).tocoo()  # each pair once, as (lower, higher)
+    _, component = connected_components(mutual, directed=False)
+    size = np.bincount(component)
+    skin = size[component[mutual.row]] >= MIN_SKIN_SHARE * n
+    return np.column_stack([mutual.row[skin], mutual.col[skin]]).astype(np.int64)
+
+
+def edge_crossings(points: np.ndarray, edges: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the edges (e, 2) of ``points`` (n, 3) cross the planes ``z = heights`` (k,),
+    ascending: an edge crosses a plane when ``z_min < h <= z_max``, at the point linear
+    along it.  Returns plane (s,) int and the crossings' (x, y) (s, 2), mm."""
+    z = points[:, 2]
+    level = np.searchsorted(heights, z, side="right")
+    first, second = level[edges[:, 0]], level[edges[:, 1]]
+    crossing = np.flatnonzero(first != second)
+    lo, hi = np.minimum(first, second)[crossing], np.maximum(first, second)[crossing]
+    pair_edge, plane = plane_pairs(lo.astype(np.int64), hi.astype(np.int64))
+    a, b = points[edges[crossing[pair_edge], 0]], points[edges[crossing[pair_edge], 1]]
+    t = (heights[plane] - a[:, 2]) / (b[:, 2] - a[:, 2])
+    return plane, a[:, :2] + t[:, None] * (b[:, :2] - a[:, :2])
