@@ -1,27 +1,39 @@
 """A point cloud's plane sections read on its neighbour graph: where the edges joining
-each point to its nearest neighbours cross the plane, linearly interpolated.
+points that are each other's nearest neighbours cross the plane, linearly interpolated.
 
 A cloud has no triangles, and a plane holds none of its points.  A slab of points within
 a half thickness of the plane, projected onto it, reads a loop as the hull of every
 section the slab spans: on a sparse or uneven cloud (a body mesh's vertices, 0.4-11 mm
 apart on one foot) the slab must be as thick as the widest spacing to close the loop, and
 where the plane cuts the skin at a slant - the heel, the instep - the loop grows by the
-skin's run across the slab (cY read 4-5 mm long on such clouds, and the ball girth cA
-2-4 mm short where the slab's few points left whole bins empty).
+skin's run across the slab (cY read up to 15 mm long on such clouds, and the ball girth
+cA up to 4 mm short where the slab's few points left whole bins empty).
 
-The k-nearest-neighbour graph stands in for the mesh the scanner did not send: on a
-surface sampled finer than its thickness and its curvature radius, a point's nearest
-neighbours are its neighbours on the skin, and an edge between two of them is a chord
-of the skin.  A plane crossing an edge crosses the skin between its ends: the crossing,
-interpolated linearly along the edge, lies on the chord - within the chord's sagitta
-(length^2 / 8R: 0.3 mm for a 9 mm edge on the heel's ~30 mm radius) of the skin - and
-exactly in the plane.  This is the section a mesh gives
-(:func:`app.geometry.sections.mesh.mesh_section_segments` crosses a triangle's two
-edges the same way), with every neighbour pair for the triangles.  Edges across the
-inside of the limb need a point's :data:`NEIGHBOURS` nearest to lie across its
-thickness: the foot is 20 mm thick at the toes and 40-60 at the ball, more than the
-neighbours' reach on any scan the fit takes (a cloud needs 1 point per mm of the leg's
-height, app.geometry.sections.cloud.MIN_CLOUD_POINTS_PER_MM).
+The graph stands in for the mesh the scanner did not send: on a surface sampled finer
+than its thickness and its curvature radius, a point's nearest neighbours are its
+neighbours on the skin, and an edge between two of them is a chord of the skin.  A plane
+crossing an edge crosses the skin between its ends: the crossing, interpolated linearly
+along the edge, lies on the chord - within the chord's sagitta (length^2 / 8R: 0.3 mm for
+a 9 mm edge on the heel's ~30 mm radius) of the skin - and exactly in the plane.  This is
+the section a mesh gives (:func:`app.geometry.sections.mesh.mesh_section_segments`
+crosses a triangle's two edges the same way), with neighbour pairs for the triangles.
+Edges across the inside of the limb need a point's :data:`NEIGHBOURS` nearest to lie
+across its thickness: the foot is 20 mm thick at the toes and 40-60 at the ball, more
+than the neighbours' reach on any scan the fit takes (a cloud needs 1 point per mm of
+the leg's height, app.geometry.sections.cloud.MIN_CLOUD_POINTS_PER_MM).
+
+A scanner's stray points are no skin, and every edge among them would cross a plane as
+the skin's do (a line of floor points beside the forefoot, crossed by a dozen edges,
+outvoted the skin in its angle bin and read cA up to 32 mm long).  Two rules keep them out:
+
+- only *mutual* neighbours are joined (each among the other's :data:`NEIGHBOURS`
+  nearest): a point off the skin has skin points among its nearest, but they have
+  nearer skin of their own, so it is joined to nothing (the mutual k-nearest-neighbour
+  graph: Maier, Hein and von Luxburg, "Optimal construction of k-nearest-neighbor graphs
+  for identifying noisy clusters", Theoretical Computer Science 410, 2009);
+- the skin is one connected surface: only the graph's components holding at least
+  :data:`MIN_SKIN_SHARE` of the points are kept, so a clump of ghosts or a sheet of
+  floor points, joined among themselves, is dropped whole.
 
 Units: mm.  Arrays: points (n, 3) in the frame whose z the heights are, edges (e, 2).
 """
@@ -36,14 +48,14 @@ from scipy.spatial import cKDTree
 
 from app.geometry.sections.polar import plane_pairs
 
-#: each point is joined to this many nearest neighbours (the graph keeps the union of
-#: the pairs, each once).  On a tessellation's vertices a point has ~6 neighbours on the
-#: skin; 10 leaves no loop open where the tessellation is stretched (6 read cY up to 0.9 mm
-#: off the mesh's on 13 sparse vertex clouds, 10 within 0.8 mm)
+#: a point's neighbours are its this-many nearest.  On a tessellation's vertices a point
+#: has ~6 neighbours on the skin; 10 leaves no loop open where the tessellation is
+#: stretched (6 read cY up to 0.9 mm off the mesh's on 13 sparse vertex clouds, 10 within
+#: 0.8 mm)
 NEIGHBOURS = 10
-#: the skin is the graph's components holding at least this share of the points (on 134
-#: generated foot clouds of 10 kinds the skin was one component of 98.9-100% of them; a
-#: scanner's strays - ghosts, floor points, streaks - were components of 1-31 points)
+#: the skin is the graph's components holding at least this share of the points (on 80
+#: generated foot clouds of 10 kinds, seed 21, the skin was one component of 98.9-100% of
+#: them; a scanner's strays - ghosts, floor points, streaks - components of 1-31 points)
 MIN_SKIN_SHARE = 0.05
 
 
