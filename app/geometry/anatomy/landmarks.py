@@ -263,6 +263,28 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     )
 
 
+def _on_a_larger_calfs_flank(profile: GirthProfile, candidate: FeatureHeights, peaks: np.ndarray) -> bool:
+    """Whether ``candidate``'s D is no waist but a point on the rising flank of a larger
+    bulge below the knee: its D is the bottom of its window (no distinct minimum above
+    it), and a peak of the girth (``peaks``, indices into the profile) above that D and
+    within KNEE_ABOVE_CALF_MM[1] of its C is larger than its C, with no local minimum of
+    the girth between - the leg only widens from the candidate's "D" up to the larger
+    maximum, the calf's.  (On a sparse vertex cloud a shoulder of the flank 46 mm below
+    the calf's maximum was taken for C, its "D" 30 mm above it and 140 mm below the knee
+    waist, with no word but D's low confidence.  A knee waist is a minimum or, on a calf
+    that levels off into the knee, has no larger bulge above it below the thigh.)"""
+    if not candidate.d_at_window_edge:
+        return False
+    heights, g, local_min = profile.heights, profile.smooth, profile.local_min
+    for peak in peaks:
+        if (candidate.d_mm < heights[peak] <= candidate.c_mm + KNEE_ABOVE_CALF_MM[1]
+                and g[peak] > candidate.girth_c_mm):
+            between = (heights > candidate.d_mm) & (heights < heights[peak])
+            if not local_min[between].any():
+                return True
+    return False
+
+
 def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None,
                          elongation: np.ndarray | None = None) -> FeatureHeights:
     """B, C, D on a profile sampled bottom (ankle end) to top (knee end).
@@ -331,6 +353,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 failures.append((failure_stage(outcome), rank, outcome))
             else:
                 valid.append((int(ic), outcome))
+        valid = [(i, o) for i, o in valid if not _on_a_larger_calfs_flank(profile, o, peaks)]
         if valid:
             index, best = valid[0]
             # C is the calf maximum: of the candidates that bracket the same calf (the
