@@ -124,8 +124,8 @@ def main(legs: int = 8, seed: int = 11) -> dict:
         scans = per_leg[-1]["scans"]
         scans[spec.kind] = chart_points(scan, case.side)
         if spec.kind == RESCAN_KINDS[-1]:
-            print(f"leg {leg}: " + ", ".join(f"{k} {v['outcome']}" for k, v in scans.items() if v["outcome"] != "fit")
-                  or "all fit", file=sys.stderr)
+            refused = ", ".join(f"{k} {v['outcome']}" for k, v in scans.items() if v["outcome"] != "fit")
+            print(f"leg {leg}: {refused or 'all fit'}", file=sys.stderr)
     errors: dict[str, list[float]] = {p: [] for p in GIRTHS + LENGTHS}
     by_kind: dict[str, dict[str, list[float]]] = {k: {"girths": [], "lengths": []} for k in RESCAN_KINDS}
     ranges: dict[str, list[float]] = {p: [] for p in GIRTHS + LENGTHS}
