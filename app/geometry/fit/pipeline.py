@@ -314,9 +314,12 @@ def fit_calf(
     skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
     fit_warnings = []
     if sparse_warned:
+        # the thigh's girths: a body's 6.5k vertices read cE, cF, cG up to 5.0 mm off the clean
+        # mesh where no uncertainty was stated (benchmarks/chart_accuracy.py 8 11, body_vertices)
         fit_warnings.append(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
-            "slabs up to 20 mm thick, which read B's girth a few mm wide; a denser export measures it better")
+            "slabs up to 20 mm thick, which read B's girth a few mm wide and the thigh's (cE, cF, cG) up to 5 mm off; "
+            "a denser export measures them better, or take them by tape")
     layers = skin_layers(local[in_calf]) if faces is None else None  # a cloud's skin twice (a mesh's is one surface)
     if layers is not None and layers.doubled:
         fit_warnings.append(layers.doubled_text)
