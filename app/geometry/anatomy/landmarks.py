@@ -263,26 +263,26 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     )
 
 
-def _on_a_larger_calfs_flank(profile: GirthProfile, candidate: FeatureHeights, peaks: np.ndarray) -> bool:
+def _on_a_larger_calfs_flank(profile: GirthProfile, candidate: FeatureHeights) -> bool:
     """Whether ``candidate``'s D is no waist but a point on the rising flank of a larger
-    bulge below the knee: its D is the bottom of its window (no distinct minimum above
-    it), and a peak of the girth (``peaks``, indices into the profile) above that D and
-    within KNEE_ABOVE_CALF_MM[1] of its C is larger than its C, with no local minimum of
-    the girth between - the leg only widens from the candidate's "D" up to the larger
-    maximum, the calf's.  (On a sparse vertex cloud a shoulder of the flank 46 mm below
-    the calf's maximum was taken for C, its "D" 30 mm above it and 140 mm below the knee
-    waist, with no word but D's low confidence.  A knee waist is a minimum or, on a calf
-    that levels off into the knee, has no larger bulge above it below the thigh.)"""
-    if not candidate.d_at_window_edge:
+    calf above it: D is wider than C (the girth rose from C to it), and above D, within
+    KNEE_ABOVE_CALF_MM[1] of C, the girth rises further to a maximum and falls from it by
+    more than a crown's 2% - a bulge with its own waist, the calf.  (On sparse vertex
+    clouds of knee-high scans, shoulders and noise dips of the flank 25-60 mm below the
+    calf's maximum were taken for C and D, D 120-140 mm below the knee waist, with no word
+    but D's low confidence; their D was 1.03-1.05 times C.  A calf that levels off into
+    the knee - the Visible Human female's left, D 1.016 times C - has no bulge above D
+    that falls again below the thigh.)  The bulge above need not be a candidate of its own:
+    its waist may lie past the scan's end, and the scan is then refused for it."""
+    if candidate.girth_d_mm <= candidate.girth_c_mm:
         return False
-    heights, g, local_min = profile.heights, profile.smooth, profile.local_min
-    for peak in peaks:
-        if (candidate.d_mm < heights[peak] <= candidate.c_mm + KNEE_ABOVE_CALF_MM[1]
-                and g[peak] > candidate.girth_c_mm):
-            between = (heights > candidate.d_mm) & (heights < heights[peak])
-            if not local_min[between].any():
-                return True
-    return False
+    heights, g, measured = profile.heights, profile.smooth, profile.measured
+    above = np.flatnonzero((heights > candidate.d_mm) & (heights <= candidate.c_mm + KNEE_ABOVE_CALF_MM[1]) & measured)
+    if len(above) < 2:
+        return False
+    top = above[int(np.argmax(g[above]))]
+    after = above[above > top]
+    return bool(g[top] > candidate.girth_d_mm and after.size and g[after].min() < 0.98 * g[top])
 
 
 def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None,
@@ -353,7 +353,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 failures.append((failure_stage(outcome), rank, outcome))
             else:
                 valid.append((int(ic), outcome))
-        valid = [(i, o) for i, o in valid if not _on_a_larger_calfs_flank(profile, o, peaks)]
+        valid = [(i, o) for i, o in valid if not _on_a_larger_calfs_flank(profile, o)]
         if valid:
             index, best = valid[0]
             # C is the calf maximum: of the candidates that bracket the same calf (the

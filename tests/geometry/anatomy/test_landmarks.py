@@ -37,20 +37,22 @@ def test_a_bump_on_the_calfs_rising_flank_is_not_the_calf():
     assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
 
 
-def test_a_shoulder_below_the_calfs_maximum_is_not_the_calf_when_the_knee_waist_is_missing():
+@pytest.mark.parametrize("dip_mm", [0.0, 5.0])
+def test_a_shoulder_below_the_calfs_maximum_is_not_the_calf_when_the_knee_waist_is_missing(dip_mm):
     """A bump 50 mm below the calf maximum (+8 mm over +-10 mm, on a flank rising 0.6 mm
     per mm), in a scan that stops 95 mm above the maximum, before the knee waist (410
-    mm): the bump has an ankle below it and, 30 mm up, a "knee waist" at its window's
-    bottom only 1.036 times as wide (within MAX_KNEE_OVER_CALF), and was read as the
-    calf (on a sparse vertex cloud of a knee-high scan: C 55 mm low, D 140 mm low).
-    That "waist" lies on the flank of the larger bulge above with no minimum between:
-    no waist.  The scan is refused for its missing knee waist; with the knee in the scan
-    the calf is found."""
+    mm): the bump has an ankle below it and, 30-40 mm up, a "knee waist" - its window's
+    bottom, or a noise dip 5 mm deep at 292 mm - 1.03 times as wide (within
+    MAX_KNEE_OVER_CALF), and was read as the calf (on sparse vertex clouds of knee-high
+    scans: C 50-55 mm low, D 120-140 mm low).  That "waist" is wider than the bump and
+    the leg rises above it to a larger maximum that falls again: the calf.  The scan is
+    refused for its missing knee waist; with the knee in the scan the calf is found."""
     for top, refused in ((395.0, True), (520.0, False)):
         z = np.arange(0.0, top, 2.0)
         calf = np.interp(z, [0, 40, 300, 410, 520], [250, 225, 390, 335, 400])
         calf = np.convolve(np.pad(calf, 15, mode="edge"), np.ones(31) / 31, mode="valid")
-        girth = calf + 8.0 * np.clip(1.0 - np.abs(z - 250.0) / 10.0, 0.0, None)
+        girth = (calf + 8.0 * np.clip(1.0 - np.abs(z - 250.0) / 10.0, 0.0, None)
+                 - dip_mm * np.clip(1.0 - np.abs(z - 292.0) / 6.0, 0.0, None))
         if refused:
             with pytest.raises(FitFailure) as caught:
                 find_feature_heights(z, girth)
