@@ -26,9 +26,10 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
 - **A cloud's sections** are read on its neighbour graph
-  (:mod:`app.geometry.sections.cloud_edges`): where the edges to each point's nearest
-  neighbours cross the plane.  A slab of points projected onto the plane read cY 4-5 mm
-  long and cA 2-4 mm short on a body mesh's vertices (0.4-11 mm apart on one foot).
+  (:mod:`app.geometry.sections.cloud_edges`): where the edges between mutual nearest
+  neighbours cross the plane.  A slab of points projected onto the plane read cY up to
+  15 mm long and cA up to 4 mm short on a body mesh's vertices (0.4-11 mm apart on one
+  foot), and a scanner's floor strays into cA 17 mm long.
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
   nor its heel's corner (:class:`app.geometry.anatomy.sole.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
@@ -89,7 +90,7 @@ INSTEP_TOP_MARGIN_MM = 10.0
 #: the widest run of empty angle bins a loop may have, degrees (0.3 of the turn: a hole,
 #: the flat sole the floor's removal took - 80-110 degrees round the forefoot's centre -
 #: which the tape bridges; wider is no closed section).  Bins left empty one here and one
-#: there are the sampling's (about 3 points a bin: 5% of them empty), not a gap
+#: there are the sampling's (about 3 points a bin: e^-3, 5%, of them empty), not a gap
 LOOP_MAX_GAP_DEG = 108.0
 #: the loop's radii are averaged over this many degrees each side (5 degrees is 5-9 mm of
 #: a foot's loop: the heel's ~30 mm curvature radius survives it)

@@ -14,7 +14,8 @@ when the scan's up direction is unknown.
 How a waist's vertex, a waist at the scan's edge and the calf's crown are read (to a
 tape's resolution) is :mod:`app.geometry.anatomy.waists`; what a record makes of the
 landmarks found (their tolerances, B1, the 7 layers) is
-:mod:`app.geometry.anatomy.feature_layers`.
+:mod:`app.geometry.anatomy.feature_layers`; how a candidate's refusal reads is
+:mod:`app.geometry.anatomy.landmark_refusals`.
 
 Units: mm.  Heights are positions along the slicing axis.
 """
@@ -27,13 +28,14 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import find_peaks
 
+from app.geometry.anatomy.landmark_refusals import ends_inside_calf, failure_stage, no_ankle, no_calf, no_knee
 from app.geometry.anatomy.waists import (
     CROWN_FRACTION,
     crown_centre,
     minimum_reached_at_edge,
     waist_vertex,
 )
-from app.geometry.errors import BulgeOnFlank, FailureReason, FitFailure, FootFound, RisesToEdge
+from app.geometry.errors import BulgeOnFlank, FailureReason, FitFailure, FootFound
 
 #: Gaussian smoothing of the circumference profile, mm; and the profile noise beyond
 #: which it grows, up to the slab thickness of the sparsest clouds (smooth_profile)
@@ -194,7 +196,7 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     zc = heights[ic]
     below = (heights >= zc - ANKLE_BELOW_CALF_MM[1]) & (heights <= zc - ANKLE_BELOW_CALF_MM[0]) & ok
     if not below.any():
-        return _no_ankle(zc - bottom)
+        return no_ankle(zc - bottom)
     ib, b_edge = None, False
     # the ankle is a leg's section: a minimum among the foot's elongated sections (a
     # pointed foot's toes, in line with the shank, narrow below the heel) is not B
@@ -206,7 +208,7 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
             ib = None
     if ib is None:
         if heights[below][0] - bottom > 2 * spacing or not minimum_reached_at_edge(heights, raw, bottom, +1):
-            return _no_ankle(zc - bottom)
+            return no_ankle(zc - bottom)
         ib, b_edge = np.flatnonzero(below)[np.argmin(g[below])], True
     # walk down from B until the girth passes the foot's or the sections turn as
     # elongated as a foot's (a knee waist has only the calf below it, a real ankle the
@@ -218,19 +220,19 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     if lower.size and g[lower].min() < (1.0 - NARROWER_BELOW) * g[ib]:
         # the ankle is the narrowest part of the leg above the foot: with a narrower leg
         # below this "ankle", it is a knee waist and the bulge above it a thigh
-        return _no_calf(
+        return no_calf(
             f"the minimum below the bulge at {g[ic]:.0f} mm girth ({g[ib]:.0f} mm) is not the ankle: "
             f"the leg below it is narrower ({g[lower].min():.0f} mm)"
         )
     if g[ic] < MIN_CALF_RATIO * g[ib]:
-        return _no_calf(
+        return no_calf(
             f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
             f"{MIN_CALF_RATIO:.2f} x the ankle girth ({g[ib]:.0f} mm)"
         )
     lo, hi = zc + KNEE_ABOVE_CALF_MM[0], zc + KNEE_ABOVE_CALF_MM[1]
     above = (heights >= lo) & (heights <= hi) & ok
     if not above.any():
-        return _no_knee(top - zc)
+        return no_knee(top - zc)
     minima = np.flatnonzero(above & local_min)
     if minima.size:
         id_ = minima[np.argmin(g[minima])]
@@ -240,10 +242,10 @@ def _check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFail
     d_edge = False
     if top - heights[id_] < INTERIOR_MARGIN_MM or not over.any() or g[over].max() < g[id_] + 0.5:
         if top - heights[above][-1] > 2 * spacing or not minimum_reached_at_edge(heights, raw, top, -1):
-            return _no_knee(top - zc)
+            return no_knee(top - zc)
         id_, d_edge = np.flatnonzero(above)[np.argmin(g[above])], True
     if g[id_] > MAX_KNEE_OVER_CALF * g[ic]:
-        flank = _no_calf(
+        flank = no_calf(
             f"the bulge at {g[ic]:.0f} mm girth is not the calf's maximum: {heights[id_] - zc:.0f} mm above it the "
             f"leg is {g[id_]:.0f} mm round and still widening, with no knee waist between"
         )
@@ -332,17 +334,17 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         widest = heights[ok][np.argmax(g[ok])]
         narrowest_h = heights[ok][np.argmin(g[ok])]
         if top - widest <= INTERIOR_MARGIN_MM * 5:
-            raise _ends_inside_calf(top - narrowest_h, float(g[ok].min()), float(g[ok].max()), at_top=True)
+            raise ends_inside_calf(top - narrowest_h, float(g[ok].min()), float(g[ok].max()), at_top=True)
         if widest - bottom <= INTERIOR_MARGIN_MM * 5:
-            raise _ends_inside_calf(narrowest_h - bottom, float(g[ok].min()), float(g[ok].max()), at_top=False)
-        raise _no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
+            raise ends_inside_calf(narrowest_h - bottom, float(g[ok].min()), float(g[ok].max()), at_top=False)
+        raise no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
     failures: list[tuple[float, float, FitFailure]] = []
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
             outcome: FeatureHeights | FitFailure
             if footlike[ic]:
-                outcome = FootFound(_no_calf(f"the bulge at {g[ic]:.0f} mm girth is {stretch[ic]:.2f} times as "
+                outcome = FootFound(no_calf(f"the bulge at {g[ic]:.0f} mm girth is {stretch[ic]:.2f} times as "
                                              "long as it is wide: a foot, not a calf").detail, float(g[ic]))
             else:
                 outcome = _check_candidate(profile, int(ic))
@@ -397,73 +399,10 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     long_rise = top - heights[narrowest] >= ANKLE_BELOW_CALF_MM[0]
     if (near_c_mm is None and not got_ankle and rising and long_rise
             and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM):
-        raise _ends_inside_calf(top - heights[narrowest], float(g[narrowest]), float(g[up].max()), at_top=True)
+        raise ends_inside_calf(top - heights[narrowest], float(g[narrowest]), float(g[up].max()), at_top=True)
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     reported = max(failures, key=lambda item: (item[0], item[1]))[2]
     # with the bulges set aside as on a flank: their girths may tell a wrong unit
     reported.flank_bulges_mm = tuple(f.girth_mm for _, _, f in failures if isinstance(f, BulgeOnFlank))
     raise reported
-
-
-#: how far a candidate got before it failed (higher is more informative)
-#: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
-#: whatever another axis or a bent knee's runs then find or miss is read off a half leg)
-FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2,
-                 FailureReason.PARTIAL_VIEW: 3}
-
-
-def failure_stage(failure: FitFailure) -> float:
-    """How informative a candidate's refusal is: :data:`FAILURE_STAGE`, and a found foot
-    (:class:`FootFound`) between a missing ankle and a missing knee (it identified the
-    bulge; a missing ankle only did not find one below it; a missing knee found both);
-    a girth that only rises to an edge (:class:`RisesToEdge`) below a missing ankle."""
-    if isinstance(failure, FootFound):
-        return 1.5
-    if isinstance(failure, RisesToEdge):
-        return 0.5
-    return FAILURE_STAGE.get(failure.reason, 0)
-
-
-def _no_ankle(span_mm: float) -> FitFailure:
-    return FitFailure(
-        FailureReason.NO_ANKLE,
-        "the ankle (B, the narrowest part of the lower leg above the ankle bones) is not in the "
-        f"scan: the scan reaches {span_mm:.0f} mm below the calf maximum, where the leg is still "
-        "narrowing. Re-scan from below the ankle bones (best: include the heel and foot).",
-    )
-
-
-def _no_knee(span_mm: float) -> FitFailure:
-    return FitFailure(
-        FailureReason.NO_KNEE,
-        "the knee waist (D, the narrowest part of the leg below the knee) is not in the scan: the "
-        f"scan reaches {span_mm:.0f} mm above the calf maximum, where the leg is still narrowing. "
-        "Re-scan up to at least 3 cm above the knee joint (over the kneecap).",
-    )
-
-
-def _ends_inside_calf(rise_mm: float, low_mm: float, high_mm: float, at_top: bool) -> FitFailure:
-    """The scan stops while the girth is still rising towards the calf: no calf maximum,
-    and the waist beyond it, in the scan.  ``rise_mm``: from the narrowest section to
-    the scan's edge, over which the girth rises from ``low_mm`` to ``high_mm``."""
-    if at_top:
-        return RisesToEdge(
-            FailureReason.NO_KNEE,
-            f"the scan ends inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm up to the "
-            f"scan's top edge ({low_mm:.0f} to {high_mm:.0f} mm) without reaching the calf maximum, so the calf "
-            "maximum C and the knee waist D above it are not in the scan. Re-scan up to at least 3 cm above the "
-            "knee joint (over the kneecap).")
-    return RisesToEdge(
-        FailureReason.NO_ANKLE,
-        f"the scan starts inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm down to the "
-        f"scan's bottom edge ({low_mm:.0f} to {high_mm:.0f} mm), so the ankle B below the calf is not in the scan. "
-        "Re-scan from below the ankle bones (best: include the heel and foot).")
-
-
-def _no_calf(detail: str) -> FitFailure:
-    return FitFailure(
-        FailureReason.NO_CALF,
-        f"{detail}. The scan must hold the whole lower leg: from below the ankle bones to above "
-        "the knee joint, with the calf in between.",
-    )

@@ -23,7 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, failure_stage, find_feature_heights
+from app.geometry.anatomy.landmark_refusals import failure_stage
+from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, find_feature_heights
 from app.geometry.errors import FailureReason, FitFailure, FootFound
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import partial_view

@@ -1,0 +1,71 @@
+"""How a calf candidate's refusal reads, and how far it got (app.geometry.anatomy.landmarks).
+
+Every refusal names what is missing from the scan and how to scan again; a candidate's
+stage (:func:`failure_stage`) says which of several refusals tells the most.  Units: mm.
+"""
+
+from __future__ import annotations
+
+from app.geometry.errors import FailureReason, FitFailure, FootFound, RisesToEdge
+
+#: how far a candidate got before it failed (higher is more informative)
+#: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
+#: whatever another axis or a bent knee's runs then find or miss is read off a half leg)
+FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2,
+                 FailureReason.PARTIAL_VIEW: 3}
+
+
+def failure_stage(failure: FitFailure) -> float:
+    """How informative a candidate's refusal is: :data:`FAILURE_STAGE`, and a found foot
+    (:class:`FootFound`) between a missing ankle and a missing knee (it identified the
+    bulge; a missing ankle only did not find one below it; a missing knee found both);
+    a girth that only rises to an edge (:class:`RisesToEdge`) below a missing ankle."""
+    if isinstance(failure, FootFound):
+        return 1.5
+    if isinstance(failure, RisesToEdge):
+        return 0.5
+    return FAILURE_STAGE.get(failure.reason, 0)
+
+
+def no_ankle(span_mm: float) -> FitFailure:
+    return FitFailure(
+        FailureReason.NO_ANKLE,
+        "the ankle (B, the narrowest part of the lower leg above the ankle bones) is not in the "
+        f"scan: the scan reaches {span_mm:.0f} mm below the calf maximum, where the leg is still "
+        "narrowing. Re-scan from below the ankle bones (best: include the heel and foot).",
+    )
+
+
+def no_knee(span_mm: float) -> FitFailure:
+    return FitFailure(
+        FailureReason.NO_KNEE,
+        "the knee waist (D, the narrowest part of the leg below the knee) is not in the scan: the "
+        f"scan reaches {span_mm:.0f} mm above the calf maximum, where the leg is still narrowing. "
+        "Re-scan up to at least 3 cm above the knee joint (over the kneecap).",
+    )
+
+
+def ends_inside_calf(rise_mm: float, low_mm: float, high_mm: float, at_top: bool) -> FitFailure:
+    """The scan stops while the girth is still rising towards the calf: no calf maximum,
+    and the waist beyond it, in the scan.  ``rise_mm``: from the narrowest section to
+    the scan's edge, over which the girth rises from ``low_mm`` to ``high_mm``."""
+    if at_top:
+        return RisesToEdge(
+            FailureReason.NO_KNEE,
+            f"the scan ends inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm up to the "
+            f"scan's top edge ({low_mm:.0f} to {high_mm:.0f} mm) without reaching the calf maximum, so the calf "
+            "maximum C and the knee waist D above it are not in the scan. Re-scan up to at least 3 cm above the "
+            "knee joint (over the kneecap).")
+    return RisesToEdge(
+        FailureReason.NO_ANKLE,
+        f"the scan starts inside the calf: from its narrowest section the girth rises {rise_mm:.0f} mm down to the "
+        f"scan's bottom edge ({low_mm:.0f} to {high_mm:.0f} mm), so the ankle B below the calf is not in the scan. "
+        "Re-scan from below the ankle bones (best: include the heel and foot).")
+
+
+def no_calf(detail: str) -> FitFailure:
+    return FitFailure(
+        FailureReason.NO_CALF,
+        f"{detail}. The scan must hold the whole lower leg: from below the ankle bones to above "
+        "the knee joint, with the calf in between.",
+    )
