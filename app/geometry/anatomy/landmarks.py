@@ -84,6 +84,9 @@ FOOT_RATIO = 1.3
 #: two calf candidates whose B and D lie within this of each other bracket one calf
 #: (B and D are each found to a few mm; two calves of one scan lie 300+ mm apart)
 SAME_WAIST_MM = 10.0
+#: peaks whose girths between them stay within this share of each other are one crown
+#: (a dip between peaks, a rise between shoulders); a bulge that falls by more has a waist
+CROWN_SPREAD = 0.02
 
 #: the calf maximum's section is nearly round: calf sections have an elongation
 #: (:meth:`app.geometry.sections.PolarSections.elongations`, sqrt(a/b) for an a x b
@@ -269,7 +272,7 @@ def _on_a_larger_calfs_flank(profile: GirthProfile, candidate: FeatureHeights) -
     """Whether ``candidate``'s D is no waist but a point on the rising flank of a larger
     calf above it: D is wider than C (the girth rose from C to it), and above D, within
     KNEE_ABOVE_CALF_MM[1] of C, the girth rises further to a maximum and falls from it by
-    more than a crown's 2% - a bulge with its own waist, the calf.  (On sparse vertex
+    more than a crown's spread (CROWN_SPREAD) - a bulge with its own waist, the calf.  (On sparse vertex
     clouds of knee-high scans, shoulders and noise dips of the flank 25-60 mm below the
     calf's maximum were taken for C and D, D 120-140 mm below the knee waist, with no word
     but D's low confidence; their D was 1.03-1.05 times C.  A calf that levels off into
@@ -284,7 +287,7 @@ def _on_a_larger_calfs_flank(profile: GirthProfile, candidate: FeatureHeights) -
         return False
     top = above[int(np.argmax(g[above]))]
     after = above[above > top]
-    return bool(g[top] > candidate.girth_d_mm and after.size and g[after].min() < 0.98 * g[top])
+    return bool(g[top] > candidate.girth_d_mm and after.size and g[after].min() < (1.0 - CROWN_SPREAD) * g[top])
 
 
 def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: float | None = None,
@@ -374,7 +377,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 if heights[other_index] - heights[index] > 100.0:
                     break
                 span = g[index : other_index + 1]
-                same_crown = span.min() >= 0.98 * best.girth_c_mm and span.max() <= 1.02 * best.girth_c_mm
+                same_crown = (span.min() >= (1.0 - CROWN_SPREAD) * best.girth_c_mm
+                              and span.max() <= (1.0 + CROWN_SPREAD) * best.girth_c_mm)
                 if other.girth_c_mm > best.girth_c_mm and same_crown:
                     index, best = other_index, other
             crown = crown_centre(heights, g, index, best.b_mm, best.d_mm - KNEE_ABOVE_CALF_MM[0])
