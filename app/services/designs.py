@@ -81,7 +81,8 @@ def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
     chart = record.chart if record.schema_version >= 3 else None
     fit = record.fit or {}
     return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart,
-                                           fit.get("surface_to_scan"), fit.get("skin_layers")))
+                                           fit.get("surface_to_scan"), fit.get("skin_layers"),
+                                           fit.get("sparse_points_per_mm")))
 
 
 def _check_document(check: DesignCheck) -> dict:

@@ -2,12 +2,15 @@
 
 import numpy as np
 import pytest
+import trimesh
 
 from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.fit.pipeline import FitOptions, fit_scan
 from app.geometry.garment.design import DesignInputs, design_stocking
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.pressure import PA_PER_MMHG
 from app.geometry.garment.standards import normalize_class
+from app.geometry.scan.reader import load_scan
 from tests.conftest import fitted
 from tests.phantoms import paper_tube as tube
 
@@ -156,3 +159,31 @@ def test_a_design_from_a_surface_off_the_skin_is_for_review():
     # an imported record's fit is its own: distances that are not such a dict are no reason
     for junk in ("far", {"worst_ring_share": "x"}, {**skin, "max_mm": None}):
         assert design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, junk).uncertain_inputs == ()
+
+
+def test_a_thigh_high_from_a_sparse_cloud_is_for_review(tmp_path):
+    """BodyParts3D's leg clustered to 8 mm and sent as its 4.4k vertices: the fit says the
+    cloud is sparse and the record keeps its density (fit.sparse_points_per_mm); a
+    thigh-high designed from it is "review", naming the thigh's points to take by tape (a
+    body's sparse vertices read cE-cG 3-5 mm off, and G once 150 mm low), a knee-high is
+    not affected, and the leg's mesh record carries no such flag."""
+    from app.records.codec import record_from_fit
+    from benchmarks.corpus.degrade import coarsen
+
+    scan, result = fitted("bodyparts3d_right_leg.stl", None)
+    assert "sparse_points_per_mm" not in record_from_fit(result, scan.source_format, scan.units).fit
+    vertices, _ = coarsen(scan.points_mm, scan.faces, 8.0)
+    path = tmp_path / "vertices.ply"
+    trimesh.PointCloud(vertices).export(path)
+    cloud = load_scan(path)
+    record = record_from_fit(fit_scan(cloud, FitOptions()), cloud.source_format, cloud.units)
+    sparse = record.fit["sparse_points_per_mm"]
+    assert 1.0 < sparse < 5.0 and any("the cloud is sparse" in w for w in record.warnings)
+    inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0), stocking_type="AG")
+    thigh_high = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart,
+                                 sparse_points_per_mm=sparse)
+    verdict, reasons = thigh_high.verdict
+    assert verdict in ("review", "fail") and any("sparse cloud" in r and "cG" in r for r in reasons)
+    knee_high = design_stocking(record.surface, record.landmarks, "right", DesignInputs(compression_class="II"),
+                                record.chart, sparse_points_per_mm=sparse)
+    assert not any("sparse cloud" in r for r in knee_high.uncertain_inputs)

@@ -99,6 +99,9 @@ class FitResult:
     sole_reason: str | None = None
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
+    #: a cloud too sparse for thin slabs (SPARSE_CLOUD_POINTS_PER_MM): its points per mm of
+    #: the calf's height (the fit warns; a thigh-high designed from it is "review")
+    sparse_points_per_mm: float | None = None
     fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
     foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
     thigh: ThighMeasures | None = None  # cE, cF, cG (app.geometry.anatomy.thigh) when measured
@@ -314,12 +317,13 @@ def fit_calf(
     skin = surface_to_scan(surface, local, faces, b_mm, d_mm)
     fit_warnings = []
     if sparse_warned:
-        # the thigh's girths: a body's 6.5k vertices read cE, cF, cG up to 5.0 mm off the clean
-        # mesh where no uncertainty was stated (benchmarks/chart_accuracy.py 8 11, body_vertices)
+        # the thigh: a body's 6.5k vertices read cE, cF, cG 3-5 mm off the clean mesh where no
+        # uncertainty was stated (benchmarks/chart_accuracy.py 8 11, body_vertices), and on one
+        # leg of 8 5 a bend of the sparse back 150 mm below the gluteal fold was taken for it
         fit_warnings.append(
             f"the cloud is sparse ({density:.1f} points per mm of the calf's height): its sections are measured on "
-            "slabs up to 20 mm thick, which read B's girth a few mm wide and the thigh's (cE, cF, cG) up to 5 mm off; "
-            "a denser export measures them better, or take them by tape")
+            "slabs up to 20 mm thick, which read B's girth a few mm wide, the thigh's girths (cE, cF, cG) several mm "
+            "off, and can misplace the gluteal fold G; a denser export measures them better, or take them by tape")
     layers = skin_layers(local[in_calf]) if faces is None else None  # a cloud's skin twice (a mesh's is one surface)
     if layers is not None and layers.doubled:
         fit_warnings.append(layers.doubled_text)
@@ -363,6 +367,7 @@ def fit_calf(
         lsq=lsq_fit,
         skin=skin,
         skin_layers=layers,
+        sparse_points_per_mm=float(density) if sparse_warned and density is not None else None,
         fit_warnings=tuple(fit_warnings),
     )
 

@@ -198,7 +198,7 @@ class DesignInputs:
 
 def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs,
                     chart: dict | None = None, skin: dict | None = None,
-                    skin_layers: dict | None = None) -> StockingDesign:
+                    skin_layers: dict | None = None, sparse_points_per_mm: float | None = None) -> StockingDesign:
     """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
@@ -208,7 +208,9 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     ``fit.surface_to_scan``, app.geometry.spline.skin_distance.SkinDistance.as_dict): a
     surface standing off the skin over an arc of a ring makes the design "review";
     skin_layers: the record's ``fit.skin_layers`` (app.geometry.scan.skin_layers.SkinLayers.as_dict):
-    a cloud holding the skin twice makes it "review" too.
+    a cloud holding the skin twice makes it "review" too, and so does a thigh-high from a
+    cloud too sparse for thin slabs (``sparse_points_per_mm``, the record's
+    ``fit.sparse_points_per_mm``: its thigh's points and G may be off).
     Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
     UNREACHABLE_PRESSURE) with the reason.
     """
@@ -302,7 +304,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         top_band=top_band(spec, band_mm, inputs.fabric),
         uncertain_inputs=_uncertain_landmarks(landmarks)
         + _uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin)
-        + _doubled_skin(skin_layers),
+        + _doubled_skin(skin_layers) + _sparse_thigh(sparse_points_per_mm, thigh is not None),
     )
 
 
@@ -326,6 +328,17 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
         return ()
     return (f"{layers.doubled_text}; the stocking is knitted from these girths: take B, C and D by tape before "
             "ordering",)
+
+
+def _sparse_thigh(points_per_mm: float | None, thigh_high: bool) -> tuple[str, ...]:
+    """The sentence for a thigh-high from a cloud too sparse for thin slabs (the fit's own
+    warning): a body's 6.5k vertices read cE, cF, cG 3-5 mm off and, on one generated leg,
+    G 150 mm low (benchmarks/chart_accuracy.py, body_vertices) - the thigh is knitted from
+    them."""
+    if points_per_mm is None or not thigh_high:
+        return ()
+    return (f"the scan is a sparse cloud ({points_per_mm:.1f} points per mm of the calf's height): its thigh's girths "
+            "and the gluteal fold G may be off; take cE, cF, cG and lG by tape (RAL-GZ 387) before knitting",)
 
 
 def _by_tape(name: str, why: str) -> str:
