@@ -43,7 +43,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, cKDTree
 
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM, Skin
@@ -148,11 +148,15 @@ def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float,
     return points[used], index[faces[keep]], None
 
 
-def _cloud_edges(points: np.ndarray, faces: np.ndarray | None) -> np.ndarray | None:
+def _cloud_graph(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray | None, cKDTree | None]:
     """A cloud's neighbour graph (e, 2) its sections are read on
-    (:func:`app.geometry.sections.neighbour_edges`); None for a mesh (its sections are
-    exact)."""
-    return None if faces is not None and len(faces) else neighbour_edges(points)
+    (:func:`app.geometry.sections.neighbour_edges`) and the k-d tree it was built on (the
+    heel's corner asks the same points which are skin); (None, None) for a mesh (its
+    sections are exact)."""
+    if faces is not None and len(faces):
+        return None, None
+    tree = cKDTree(points) if len(points) else None
+    return neighbour_edges(points, tree=tree), tree
 
 
 def _sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
@@ -228,7 +232,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
         return _not_measured(no_sole_reason or "the foot is not in the scan")
     # the part of the scan the heel-instep loop is read on, and a cloud's graph over it, once
     instep, instep_faces, _ = _below(points, faces, INSTEP_TOP_MM)
-    instep_edges = _cloud_edges(instep, instep_faces)
+    instep_edges, instep_tree = _cloud_graph(instep, instep_faces)
     # the foot: below halfway from the sole to B (the forefoot is 40-55 mm high, B 100-150
     # mm above the sole; the shank's back above the heel would cut the heel's end planes)
     below_b, below_faces, edges = _below(instep, instep_faces, 0.5 * sole_mm, instep_edges)
@@ -278,11 +282,11 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
     return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
-                                                                 instep_edges))
+                                                                 instep_edges, instep_tree))
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                 heel_t: float, length: float, edges: np.ndarray | None) -> FootPoint:
+                 heel_t: float, length: float, edges: np.ndarray | None, tree: cKDTree | None) -> FootPoint:
     """cY: the shortest loop round the heel's posterior-inferior point and over the front
     of the ankle, among the planes through that point containing the foot's transverse
     axis tilted INSTEP_TILT_DEG from the floor whose loop's far end lies over the ankle
@@ -299,7 +303,7 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     if not len(heel_side):
         return FootPoint("cY", None, reason="the heel is not in the scan")
     band = np.flatnonzero(np.abs(side - np.median(heel_side)) <= HEEL_HALF_BAND_MM)
-    corner = Skin(points, faces is not None).first(band, -(points[band] @ back_down))
+    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down))
     if corner is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
     heel = points[corner]

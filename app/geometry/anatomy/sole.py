@@ -108,11 +108,15 @@ class Skin:
     """Which of a scan's points are skin (module docstring), asked of the few points that
     decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
     STRAY_RADIUS_SPACINGS median spacings of the points round them and not on a streak
-    (STREAK_SHARE).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices."""
+    (STREAK_SHARE).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices;
+    ``tree``: a cloud's k-d tree over ``points`` when the caller has built one."""
 
-    def __init__(self, points: np.ndarray, is_mesh: bool):
+    def __init__(self, points: np.ndarray, is_mesh: bool, tree: cKDTree | None = None):
         self.points = points
-        self.tree = None if is_mesh or len(points) <= STRAY_NEIGHBOURS + 1 else cKDTree(points)
+        if is_mesh or len(points) <= STRAY_NEIGHBOURS + 1:
+            self.tree = None
+        else:
+            self.tree = tree if tree is not None else cKDTree(points)
 
     def of(self, index: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
         """(k,) bool for the points ``index`` (k,), the spacing the median over the points

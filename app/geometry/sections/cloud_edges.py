@@ -59,16 +59,17 @@ NEIGHBOURS = 10
 MIN_SKIN_SHARE = 0.05
 
 
-def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS) -> np.ndarray:
+def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS, tree: cKDTree | None = None) -> np.ndarray:
     """(e, 2) int, lower index first: the skin's edges among ``points`` (n, 3) - the pairs
     each among the other's ``neighbours`` nearest (the mutual k-nearest-neighbour graph)
     in the graph's components of at least :data:`MIN_SKIN_SHARE` of the points (module
-    docstring); empty for fewer than two points."""
+    docstring); empty for fewer than two points.  ``tree``: a k-d tree over ``points``
+    already built (a caller asking more of the same points shares it)."""
     n = len(points)
     k = min(neighbours, n - 1)
     if k < 1:
         return np.empty((0, 2), dtype=np.int64)
-    _, nearest = cKDTree(points).query(points, k=k + 1)
+    _, nearest = (tree if tree is not None else cKDTree(points)).query(points, k=k + 1)
     near, far = np.repeat(np.arange(n), k), nearest[:, 1:].ravel()  # a point is its own nearest
     chosen = coo_matrix((np.ones(n * k), (near, far)), shape=(n, n)).tocsr()
     mutual = sparse_triu(chosen.multiply(chosen.T), k=1).tocoo()  # each pair once, as (lower, higher)
