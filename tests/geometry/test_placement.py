@@ -90,6 +90,38 @@ def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path
         assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
 
 
+@pytest.mark.parametrize("cut_side", ["left", "right"])
+def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_side(female_body, tmp_path, cut_side):
+    """The body cut at the hips as above, and one leg cut 400 mm above the sole (no ankle,
+    no calf): the other leg is the only one placed.  Asked for the cut leg, the service
+    refuses and names the leg it could measure (before, it measured the other leg and
+    labelled it with the side asked); asked for none or for the whole one, it measures the
+    whole one, its side told by where the cut leg stands."""
+    body, _ = female_body
+    vertices = body.points_mm
+    sole = vertices[:, 1].min()
+    hips = crop(trimesh.Trimesh(vertices, body.faces, process=False),
+                np.array([0.0, sole + 0.45 * np.ptp(vertices[:, 1]), 0.0]), np.array([0.0, -1.0, 0.0]))
+    ankles = {side: check_scan(body, FitOptions(side=side)).origin_mm for side in ("left", "right")}
+    between = 0.5 * (ankles["left"][0] + ankles["right"][0])  # the files stand along +y, legs apart along x
+    on_cut_leg = (np.sign(hips.vertices[:, 0] - between) == np.sign(ankles[cut_side][0] - between)) \
+        & (hips.vertices[:, 1] < sole + 400.0)
+    hips.update_faces(~on_cut_leg[hips.faces].any(axis=1))
+    hips.remove_unreferenced_vertices()
+    path = tmp_path / "one_leg_cut.ply"
+    hips.export(path)
+    scan = load_scan(path)
+    whole = "right" if cut_side == "left" else "left"
+    with pytest.raises(FitFailure) as refused:
+        check_scan(scan, FitOptions(side=cut_side))
+    assert refused.value.reason is FailureReason.SEVERAL_LEGS
+    assert f"only the {whole} one could be measured" in str(refused.value) and f"side={whole}" in str(refused.value)
+    for asked in (None, whole):
+        placement = check_scan(scan, FitOptions(side=asked))
+        assert placement.side == whole and placement.side_source == ("body" if asked is None else "given")
+        assert np.linalg.norm(np.asarray(placement.origin_mm) - ankles[whole]) < 15.0
+
+
 # --- one leg scanned twice ----------------------------------------------------------------
 
 

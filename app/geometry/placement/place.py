@@ -28,6 +28,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
+from app.geometry.anatomy.other_leg import OtherLeg, other_leg_beside
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
@@ -216,6 +217,14 @@ def one_copy_per_leg(legs: list[tuple[_Candidate, LegPlacement]]) -> tuple[list[
     return kept, warnings
 
 
+def _other_leg(clean: CleanScan, placement: LegPlacement) -> OtherLeg | None:
+    """A second leg beside the placed one anywhere in the cleaned scan (its own piece's
+    other half, or a piece of its own), :func:`app.geometry.anatomy.other_leg.other_leg_beside`;
+    the occupancy cell bridges twice the scan's point spacing, as the two-leg split's."""
+    pixel = max(10.0, 2.0 * (clean.spacing_p95_mm or 0.0))
+    return other_leg_beside(placement.frame.to_calf(clean.points), placement.d_mm, pixel)
+
+
 def _describe(placement: LegPlacement, side: str, points: int) -> str:
     return f"a {side} leg ({points} points, calf {placement.c_mm:.0f} mm above its ankle)"
 
@@ -280,27 +289,41 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         warnings.append(f"{ignored} detached piece(s) of the scan were ignored (no ankle, calf and knee in them)")
     legs, copies = one_copy_per_leg(legs)
     warnings.extend(copies)
+    found: str | None
+    source: str | None
+    confidence: float | None = None
     if len(legs) == 1:
         candidate, placement = legs[0]
-        guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
-        if side is not None:
-            # the clinician's side is kept (a foot can mislead: a deformity, an amputated
-            # toe, a bandage), but a confident foot that says otherwise is said in the
-            # record's warnings - left and right swap medial and lateral in every design
-            found: str | None = side
-            source: str | None = "given"
-            confidence: float | None = None
-            if (guess.side is not None and guess.side != side
-                    and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE):
-                warnings.append(
-                    f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
-                    f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is wrong, "
-                    "medial and lateral are swapped in every design - check the scan and upload it again with the "
-                    "right side")
+        beside = _other_leg(clean, placement)
+        if beside is not None:
+            # a second leg stands beside the one placed: its position tells the side, and a
+            # side given against it names the leg this scan could not measure
+            if side not in (None, beside.measured_side):
+                raise FitFailure(
+                    FailureReason.SEVERAL_LEGS,
+                    f"the scan holds two legs, but only the {beside.measured_side} one could be measured: no ankle, "
+                    f"calf and knee waist were found on the {side} leg (beside it, {beside.offset_mm:.0f} mm to its "
+                    f"{beside.side}); scan the whole {side} leg from below the ankle to above the knee, or pass "
+                    f"side={beside.measured_side} to measure the other leg")
+            found, source = beside.measured_side, ("given" if side else "body")
         else:
-            found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
-            if guess.side is None and guess.reason:
-                warnings.append(f"left or right could not be told: {guess.reason}")
+            guess = infer_side(placement.frame.to_calf(candidate.points), placement.anterior_cue)
+            if side is not None:
+                # the clinician's side is kept (a foot can mislead: a deformity, an amputated
+                # toe, a bandage), but a confident foot that says otherwise is said in the
+                # record's warnings - left and right swap medial and lateral in every design
+                found, source = side, "given"
+                if (guess.side is not None and guess.side != side
+                        and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE):
+                    warnings.append(
+                        f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
+                        f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is "
+                        "wrong, medial and lateral are swapped in every design - check the scan and upload it again "
+                        "with the right side")
+            else:
+                found, source, confidence = guess.side, ("foot" if guess.side else None), guess.confidence
+                if guess.side is None and guess.reason:
+                    warnings.append(f"left or right could not be told: {guess.reason}")
     else:
         sides = _sides_of(legs)
         if side is None or side not in sides:
@@ -309,7 +332,7 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
             raise FitFailure(FailureReason.SEVERAL_LEGS, f"the scan holds {len(legs)} legs: {listed}; {hint}")
         pick = sides.index(side)
         candidate, placement = legs[pick]
-        found, source, confidence = side, "body", None
+        found, source = side, "body"
     if placement.half_spaces:
         warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
                         "the knee angle, and measured only where that cut leaves its sections whole")

@@ -1,0 +1,119 @@
+"""The other leg beside the measured one: on which side of it the scan holds a second leg.
+
+A scan of two legs of which only one could be placed (the other cut short above its
+ankle, or not whole) is measured on the one leg found.  Where the second leg stands
+tells that leg's side without the foot: a person's legs stand side by side, the left
+one on the subject's left (-x in the calf frame, whose x is the subject's right:
+anterior x up, as :mod:`app.geometry.anatomy.side` and the two-leg split use).  A side
+given against that position is the other leg's, which this scan cannot measure.
+
+The rule, in horizontal slabs of the calf frame (mm, z up the leg from B, 20 mm thick,
+every 20 mm from B to :data:`REACH_ABOVE_D_MM` above the knee waist D):
+
+1. the slab's points on a coarse occupancy grid (:func:`slab_blobs`: closed, holes
+   filled, so a mesh's ring and a cloud's scatter both give the section's area);
+2. the measured leg's own blob is the one whose centre is nearest its calf axis
+   (x = y = 0; above D the thigh drifts from that axis by a few cm, the other thigh's
+   centre lies two thigh radii away);
+3. a second leg beside it is a blob at least :data:`LEG_AREA_SHARE` of the own blob's
+   area (a calf, knee or thigh beside a calf, knee or thigh; a hand or a forearm, the
+   only other limbs that reach below mid-thigh, are a fifth of a thigh's section or less)
+   whose centre lies at least :data:`MIN_APART_MM` from the own blob's (two shins'
+   centres are at least that far apart: :mod:`app.geometry.placement.calf_frame`);
+4. the side is told when at least :data:`MIN_SLABS` slabs hold such a blob (60 mm of a
+   leg, not a fragment) and at least :data:`MIN_AGREEMENT` of them hold it on one side
+   only (a slab with leg-sized blobs on both sides votes for neither).
+
+Slabs where the two legs touch (knees, the crotch) read one merged blob and count for
+nothing; so do slabs with a second leg seen only as an open arc (a partial view of it),
+whose filled area is a strip.  Both leave the side to the foot, as before.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+SLAB_MM = 20.0
+#: slabs reach this far above the knee waist D: knee and lower thigh, below the finger
+#: tips of a standing person (ANSUR II: fingertip height ~0.38 of stature, D ~0.28)
+REACH_ABOVE_D_MM = 250.0
+#: a second leg's section is at least this share of the measured leg's at the same height
+LEG_AREA_SHARE = 0.5
+#: the least distance between two legs' section centres, mm
+MIN_APART_MM = 60.0
+MIN_SLABS = 3
+MIN_AGREEMENT = 0.9
+
+
+@dataclass(frozen=True)
+class OtherLeg:
+    """A second leg beside the measured one: ``side`` "left" / "right" of the measured
+    leg it stands on, the number of ``slabs`` it was seen in and the median over those
+    slabs of the nearest such blob's centre ``offset_mm`` from the measured leg's
+    (horizontal, mm)."""
+
+    side: str
+    slabs: int
+    offset_mm: float
+
+    @property
+    def measured_side(self) -> str:
+        """The measured leg's side: the one away from the other leg."""
+        return "right" if self.side == "left" else "left"
+
+
+def slab_blobs(points_xy: np.ndarray, pixel_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Filled areas (k,) in mm^2 and centres (k, 2) in mm of the separate blobs of
+    (n, 2) points on an occupancy grid of ``pixel_mm`` cells (closed once, holes filled)."""
+    if len(points_xy) < 10:
+        return np.zeros(0), np.zeros((0, 2))
+    origin = points_xy.min(axis=0)
+    cells = np.floor((points_xy - origin) / pixel_mm).astype(np.int64) + 1
+    grid = np.zeros(cells.max(axis=0) + 2, dtype=bool)
+    grid[cells[:, 0], cells[:, 1]] = True
+    grid = ndimage.binary_fill_holes(ndimage.binary_closing(grid, iterations=1))
+    labels, count = ndimage.label(grid)
+    if count == 0:
+        return np.zeros(0), np.zeros((0, 2))
+    index = np.arange(1, count + 1)
+    areas = ndimage.sum_labels(grid, labels, index) * pixel_mm**2
+    centres = np.array(ndimage.center_of_mass(grid, labels, index)).reshape(-1, 2)
+    return areas, origin + (centres - 1.0 + 0.5) * pixel_mm
+
+
+def other_leg_beside(calf_points: np.ndarray, d_mm: float, pixel_mm: float = 10.0) -> OtherLeg | None:
+    """The second leg beside the measured one (module docstring), or None when the scan
+    holds none that the rule can see.
+
+    calf_points (n, 3): every point of the cleaned scan in the measured leg's calf frame
+    (mm, B at the origin, z up the leg, x the subject's right); ``d_mm`` D's height above
+    B; ``pixel_mm`` the occupancy cell, at least twice the scan's point spacing so that a
+    ring of skin stays one blob.
+    """
+    z = calf_points[:, 2]
+    order = np.argsort(z)
+    z_sorted = z[order]
+    votes: list[float] = []  # -1 left, +1 right, 0 both
+    offsets: list[float] = []
+    for level in np.arange(SLAB_MM / 2, d_mm + REACH_ABOVE_D_MM, SLAB_MM):  # ~30 slabs
+        lo, hi = np.searchsorted(z_sorted, [level - SLAB_MM / 2, level + SLAB_MM / 2])
+        areas, centres = slab_blobs(calf_points[order[lo:hi], :2], pixel_mm)
+        if len(areas) < 2:
+            continue
+        own = int(np.argmin(np.linalg.norm(centres, axis=1)))
+        apart = centres - centres[own]
+        beside = (areas >= LEG_AREA_SHARE * areas[own]) & (np.linalg.norm(apart, axis=1) >= MIN_APART_MM)
+        if beside.any():
+            # a slab votes for a side when every leg-sized blob beside it lies on that side
+            across = np.sign(apart[beside, 0])
+            votes.append(across[0] if (across == across[0]).all() else 0.0)
+            offsets.append(float(np.linalg.norm(apart[beside], axis=1).min()))
+    if len(votes) < MIN_SLABS:
+        return None
+    on_left, on_right = float(np.mean(np.array(votes) < 0)), float(np.mean(np.array(votes) > 0))
+    if max(on_left, on_right) < MIN_AGREEMENT:
+        return None
+    return OtherLeg("left" if on_left > on_right else "right", len(votes), float(np.median(offsets)))
