@@ -119,10 +119,12 @@ class KneeMiddle:
 
 
 def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, knee_sections: PolarSections,
-                        girth: np.ndarray, slope: np.ndarray, window: np.ndarray) -> KneeMiddle:
+                       girth: np.ndarray, slope: np.ndarray, window: np.ndarray,
+                       edges: np.ndarray | None = None) -> KneeMiddle:
     """E (module docstring) on ``heights`` (k,) every STEP_MM from D, whose prefix
     ``knee_sections`` are, with their tape ``girth`` (k,; NaN above them), its ``slope``
-    (k,) and the ``window`` (k,) E is searched in."""
+    (k,) and the ``window`` (k,) E is searched in; ``edges`` a sparse cloud's neighbour
+    graph (app.geometry.sections.tape_sections)."""
     # the level stretch: the run of heights round the least slope whose slope stays within
     # KNEE_LEVEL_SLOPE of it; E is its middle (the least slope alone wanders along a flat
     # stretch with a scanner's noise), as C is the middle of the calf's crown
@@ -131,7 +133,7 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
     level = run_between_crossings(heights, slope, window, least, slope[least] + KNEE_LEVEL_SLOPE)
     e_mm = level.middle_mm
     # knee_span is a prefix of heights: its sections are indexed as heights are
-    (knee,) = read_across_tape((level_between("E", knee_sections, girth, e_mm),), points, faces)
+    (knee,) = read_across_tape((level_between("E", knee_sections, girth, e_mm),), points, faces, edges)
     warnings: tuple[str, ...] = ()
     crownless = bool(least in (inside[0], inside[-1]))
     # how far E moves with the level band's width, a judgement (KNEE_LEVEL_SLOPE): E read

@@ -63,18 +63,19 @@ def girth_spread(heights: np.ndarray, girths: np.ndarray, at_mm: float, half_mm:
     return float(np.max(np.abs(reach - np.interp(at_mm, z, g))))
 
 
-def read_across_tape(levels: tuple[LevelPoint, ...], points: np.ndarray, faces: np.ndarray | None
-                      ) -> tuple[LevelPoint, ...]:
+def read_across_tape(levels: tuple[LevelPoint, ...], points: np.ndarray, faces: np.ndarray | None,
+                     edges: np.ndarray | None = None) -> tuple[LevelPoint, ...]:
     """Each point's girth read across a tape's width (the median over the planes
     app.geometry.sections.TAPE_BAND_OFFSETS_MM about its height, as B, B1, C, D are:
     one plane spoiled by a scanner's noise or a hole's edge is outvoted), its height and
     centre kept; the single plane's girth where the band has no reading.  The points are
     read in one call: each plane's section depends on its own plane (a mesh's) or slab (a
-    cloud's) only, so reading them together gives what reading each alone does."""
+    cloud's) only, so reading them together gives what reading each alone does.  ``edges``:
+    a sparse cloud's neighbour graph (app.geometry.sections.tape_sections)."""
     readable = [i for i, level in enumerate(levels) if level.girth_mm is not None and level.height_mm is not None]
     if not readable:
         return levels
-    band = tape_band_girths(points, faces, np.array([levels[i].height_mm for i in readable]))
+    band = tape_band_girths(points, faces, np.array([levels[i].height_mm for i in readable]), edges)
     read = list(levels)
     for i, girth in zip(readable, band):
         if np.isfinite(girth):

@@ -94,8 +94,11 @@ def _thigh_tilt_deg(heights: np.ndarray, sections: PolarSections, d_mm: float) -
     return float(np.degrees(np.arctan(np.hypot(drift[0], drift[1]))))
 
 
-def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool) -> ThighMeasures:
-    """E, F, G of the module docstring (mm), or why not."""
+def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,
+                   edges: np.ndarray | None = None) -> ThighMeasures:
+    """E, F, G of the module docstring (mm), or why not; ``edges``: a sparse cloud's
+    neighbour graph, its girths read where the edges cross the tape's planes
+    (app.geometry.sections.tape_sections)."""
     if knee_bent:
         return _none("the knee is bent: the thigh is cut free of the shank (a thigh-high stocking is measured standing)")
     top = float(points[:, 2].max())
@@ -107,7 +110,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # section of its own (tape_sections), so the thigh's sections cost a third of reading
     # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
     knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
-    knee_sections = tape_sections(points, faces, heights[knee_span])
+    knee_sections = tape_sections(points, faces, heights[knee_span], edges)
     girth = np.full(len(heights), np.nan)
     girth[knee_span] = knee_sections.tape_perimeters()
     tilt = _thigh_tilt_deg(heights[knee_span], knee_sections, d_mm)
@@ -119,7 +122,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     window = (heights >= d_mm + KNEE_WINDOW_MM[0]) & (heights <= d_mm + KNEE_WINDOW_MM[1]) & np.isfinite(slope)
     if not window.any():
         return _none("the knee has no closed sections in the scan (a hole or a crop)")
-    middle = middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window)
+    middle = middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window, edges)
     knee, e_mm, warnings = middle.point, middle.height_mm, middle.warnings
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = posterior_profile(points, faces, heights)
@@ -135,7 +138,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     g_height = fold.height_uncertainty_mm
     over_g = np.r_[np.arange(g_mm + PROFILE_STEP_MM, g_mm + g_height, PROFILE_STEP_MM), g_mm + g_height]
     planes = np.unique(np.r_[profile_z, f_mm, over_g[(over_g > g_mm) & (over_g < top - STEP_MM)]])
-    sections = tape_sections(points, faces, planes)
+    sections = tape_sections(points, faces, planes, edges)
     planes_girth = sections.tape_perimeters()
     top_of_thigh = level_on_section("G", sections, planes_girth, int(np.searchsorted(planes, g_mm)))
     if top_of_thigh.girth_mm is None:
@@ -143,7 +146,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
                              warnings=warnings)
     mid_thigh, top_of_thigh = read_across_tape(
-        (level_on_section("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces)
+        (level_on_section("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces, edges)
     # a plane without a closed section: read between its neighbours
     profile_g = gaps_filled(profile_z, planes_girth[np.searchsorted(planes, profile_z)])
     # a fold smoother than a crease: G is uncertain by the fold's own half extent (or by

@@ -4,7 +4,8 @@
 plane geometry; :mod:`~app.geometry.sections.mesh` slices a mesh exactly (plane-section
 segments, rays from the centroid), :mod:`~app.geometry.sections.cloud` a point cloud
 (robust polar fits of slabs); :mod:`~app.geometry.sections.cloud_edges` reads a cloud's
-plane sections on its neighbour graph (the foot's oblique loops).  :func:`slice_polar`
+plane sections on its neighbour graph (the foot's oblique loops, a sparse cloud's tape
+girths).  :func:`slice_polar`
 and :func:`tape_girths` choose between mesh and cloud.  Units: mm.
 """
 
@@ -13,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
-from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges
+from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges, round_edge_crossings
 from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
@@ -30,44 +31,57 @@ __all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "edge_crossings", "group_med
 TAPE_BAND_OFFSETS_MM = np.array([-4.0, -2.0, 0.0, 2.0, 4.0])
 
 
-def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
+                edges: np.ndarray | None = None) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
     section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm
     (:func:`tape_sections`' perimeters); NaN where there is no section."""
-    return tape_sections(points, faces, heights).tape_perimeters()
+    return tape_sections(points, faces, heights, edges).tape_perimeters()
 
 
-def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> PolarSections:
+def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
+                  edges: np.ndarray | None = None) -> PolarSections:
     """The sections a tape is read on at ``heights`` (k,), mm: points (n, 3) in the frame
     whose z the heights are, faces (f, 3) or None; their ``tape_perimeters()`` are the
     tape girths, their centroids where the tape's plane crosses the limb's axis.
 
     The hull is taken of the robust polar fit of the section on 360 rays
-    (:mod:`app.geometry.sections.cloud`): of the slab of points for a cloud, of the exact
-    plane-section segment ends for a mesh - so scanner noise on the vertices, which the
-    hull of the raw section would pick up at its outermost points, is averaged out.
-    NaN rows where there is no section.
+    (:mod:`app.geometry.sections.cloud`): of the exact plane-section segment ends for a
+    mesh; for a cloud with its neighbour graph ``edges`` (e, 2)
+    (:func:`app.geometry.sections.cloud_edges.neighbour_edges`: a sparse cloud's, whose
+    slabs would be thick), of where the graph's edges cross the plane, and else of the
+    slab of points - so scanner noise on the vertices, which the hull of the raw section
+    would pick up at its outermost points, is averaged out.  NaN rows where there is no
+    section.  With ``edges``, the heights ascend.
     """
     heights = np.asarray(heights, dtype=np.float64)
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
         ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
         return slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
+    if edges is not None:
+        if np.any(np.diff(heights) < 0):
+            raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
+        plane, crossings = round_edge_crossings(points, edges, heights)
+        return slice_points_polar(np.column_stack([crossings, heights[plane]]), heights, 360,
+                                  half_thickness=1e-6, widen=False)
     return slice_points_polar(points, heights, 360)
 
 
-def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray) -> np.ndarray:
+def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
+                     edges: np.ndarray | None = None) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,) read across a tape's width: the median of
     :func:`tape_girths` on the planes :data:`TAPE_BAND_OFFSETS_MM` about each height
     (a plane without a section is left out, and so is its mirror about the height),
     mm; NaN where no mirrored pair (or the middle plane) has a section: the caller then
     reads the girth some other way.
-    points (n, 3) mm in the frame whose z the heights are; faces (f, 3) or None."""
+    points (n, 3) mm in the frame whose z the heights are; faces (f, 3) or None; a
+    cloud's neighbour graph ``edges`` (e, 2) or None (:func:`tape_sections`)."""
     heights = np.asarray(heights, dtype=np.float64)
     planes = (heights[:, None] + TAPE_BAND_OFFSETS_MM[None, :]).ravel()
     order = np.argsort(planes, kind="stable")
     flat = np.empty(len(planes))
-    flat[order] = tape_girths(points, faces, planes[order])
+    flat[order] = tape_girths(points, faces, planes[order], edges)
     girths = flat.reshape(len(heights), len(TAPE_BAND_OFFSETS_MM))
     # a band read on one side only is not a reading at the height (on B1's slope, a
     # sparse cloud measured only 4 mm above B1 reads its girth 4 mm up): only the planes
