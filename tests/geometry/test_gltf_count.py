@@ -22,7 +22,7 @@ def leg() -> trimesh.Trimesh:
 def test_every_instance_is_counted_as_trimesh_would_expand_it(leg):
     data = instanced_glb(3, leg)
     size = gltf_scene_size(gltf_json(data, "glb"))
-    expanded = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="glb").dump(concatenate=True)
+    expanded = trimesh.load(trimesh.util.wrap_as_stream(data), file_type="glb").to_geometry()
     assert size.triangles == len(expanded.faces) == 3 * len(leg.faces)
     assert size.points == len(expanded.vertices)
 
