@@ -17,7 +17,8 @@ found from the foot (its anterior cue).  Arrays: points (n, 3), faces (f, 3) or 
   m, more on a scanner's regular grid; a ghost off the skin holds none, a floor's stray
   points under the heel one or two.  A cloud's point with fewer than STRAY_NEIGHBOURS
   (a third of the skin's) is no skin, nor is a point of a scanner's streak, a line of
-  points leaving the skin (its nearest points spread along one line: STREAK_SHARE).
+  points leaving the skin (its nearest points spread along one line:
+  app.geometry.sections.cloud_edges.STREAK_SHARE).
   m is local, the median over the SPACING_SAMPLE points nearest the decision (the
   heel's lowest, for the sole; the foot's ends): a scanner's spacing
   changes over a foot (a tessellation's vertices: 0.4 mm apart on the heel's back, 1.2
@@ -62,18 +63,12 @@ from scipy.spatial import cKDTree
 
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.sections import mesh_section_segments
+from app.geometry.sections.cloud_edges import STREAK_NEIGHBOURS, on_a_streak
 
 #: a cloud's stray point: fewer than STRAY_NEIGHBOURS within STRAY_RADIUS_SPACINGS median
 #: spacings (module docstring)
 STRAY_RADIUS_SPACINGS = 4.0
 STRAY_NEIGHBOURS = 4
-#: a scanner's streak (a line of points leaving the skin, 30-80 mm long): the second
-#: largest spread (eigenvalue of the covariance) of a point's STREAK_NEIGHBOURS nearest
-#: under STREAK_SHARE of the largest.  On skin they spread over a patch of the surface
-#: (a share of 0.1 or more even on a tessellation's rings, 3 times as far apart as their
-#: points); on a streak along it, the second spread the streak's own scatter
-STREAK_NEIGHBOURS = 8
-STREAK_SHARE = 0.05
 #: the skin's spacing round the points tested is the median over this many of them
 SPACING_SAMPLE = 2000
 #: the lowest points are tested this many at a time, lowest first
@@ -108,7 +103,7 @@ class Skin:
     """Which of a scan's points are skin (module docstring), asked of the few points that
     decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
     STRAY_RADIUS_SPACINGS median spacings of the points round them and not on a streak
-    (STREAK_SHARE).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices;
+    (app.geometry.sections.cloud_edges.on_a_streak).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices;
     ``tree``: a cloud's k-d tree over ``points`` when the caller has built one."""
 
     def __init__(self, points: np.ndarray, is_mesh: bool, tree: cKDTree | None = None):
@@ -129,9 +124,7 @@ class Skin:
         dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
         # a streak: its nearest points spread along one line, where a surface's spread in two
         _, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
-        around = self.points[nearest] - self.points[nearest].mean(axis=1, keepdims=True)  # (k, m, 3)
-        spread = np.linalg.eigvalsh(np.einsum("kmi,kmj->kij", around, around))  # (k, 3) rising
-        return dense & (spread[:, 1] >= STREAK_SHARE * spread[:, 2])
+        return dense & ~on_a_streak(self.points, nearest)
 
     def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)

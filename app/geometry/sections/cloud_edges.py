@@ -24,13 +24,18 @@ the leg's height, app.geometry.sections.cloud.MIN_CLOUD_POINTS_PER_MM).
 
 A scanner's stray points are no skin, and every edge among them would cross a plane as
 the skin's do (a line of floor points beside the forefoot, crossed by a dozen edges,
-outvoted the skin in its angle bin and read cA up to 32 mm long).  Two rules keep them out:
+outvoted the skin in its angle bin and read cA up to 32 mm long).  Three rules keep them out:
 
 - only *mutual* neighbours are joined (each among the other's :data:`NEIGHBOURS`
   nearest): a point off the skin has skin points among its nearest, but they have
   nearer skin of their own, so it is joined to nothing (the mutual k-nearest-neighbour
   graph: Maier, Hein and von Luxburg, "Optimal construction of k-nearest-neighbor graphs
   for identifying noisy clusters", Theoretical Computer Science 410, 2009);
+- the skin is a surface: a point whose nearest spread along one line is on a scanner's
+  streak (:func:`on_a_streak`, the rule app.geometry.anatomy.sole's skin test uses) and
+  joined to nothing - a streak leaves the skin from a root on it, so its own edges,
+  crossing a plane all at one point a dozen times, would join the skin's component (a
+  streak beside the forefoot read cA 8 mm long, chart_accuracy 8 5);
 - the skin is one connected surface: only the graph's components holding at least
   :data:`MIN_SKIN_SHARE` of the points are kept, so a clump of ghosts or a sheet of
   floor points, joined among themselves, is dropped whole.
@@ -58,30 +63,51 @@ from app.geometry.sections.polar import plane_pairs
 #: stretched (6 read cY up to 0.9 mm off the mesh's on 13 sparse vertex clouds, 10 within
 #: 0.8 mm)
 NEIGHBOURS = 10
+#: a scanner's streak (a line of points leaving the skin, 30-80 mm long): the second
+#: largest spread (eigenvalue of the covariance) of a point's STREAK_NEIGHBOURS nearest
+#: under STREAK_SHARE of the largest.  On skin they spread over a patch of the surface
+#: (a share of 0.1 or more even on a tessellation's rings, 3 times as far apart as their
+#: points); on a streak along it, the second spread the streak's own scatter
+STREAK_NEIGHBOURS = 8
+STREAK_SHARE = 0.05
 #: the skin is the graph's components holding at least this share of the points (on 80
 #: generated foot clouds of 10 kinds, seed 21, the skin was one component of 98.9-100% of
 #: them; a scanner's strays - ghosts, floor points, streaks - components of 1-31 points)
 MIN_SKIN_SHARE = 0.05
 
 
+def on_a_streak(points: np.ndarray, nearest: np.ndarray) -> np.ndarray:
+    """(k,) bool: the points whose :data:`STREAK_NEIGHBOURS` nearest spread along one line
+    (:data:`STREAK_SHARE`), a streak's and not the skin's.  ``nearest`` (k, m >=
+    STREAK_NEIGHBOURS + 1): each point's nearest among ``points`` (n, 3), itself first."""
+    around = points[nearest[:, : STREAK_NEIGHBOURS + 1]]
+    around = around - around.mean(axis=1, keepdims=True)  # (k, m, 3)
+    spread = np.linalg.eigvalsh(np.einsum("kmi,kmj->kij", around, around))  # (k, 3) rising
+    return spread[:, 1] < STREAK_SHARE * spread[:, 2]
+
+
 def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS, tree: cKDTree | None = None) -> np.ndarray:
     """(e, 2) int, lower index first: the skin's edges among ``points`` (n, 3) - the pairs
-    each among the other's ``neighbours`` nearest (the mutual k-nearest-neighbour graph)
-    in the graph's components of at least :data:`MIN_SKIN_SHARE` of the points (module
-    docstring); empty for fewer than two points.  ``tree``: a k-d tree over ``points``
-    already built (a caller asking more of the same points shares it)."""
+    each among the other's ``neighbours`` nearest (the mutual k-nearest-neighbour graph),
+    neither on a streak (:func:`on_a_streak`), in the graph's components of at least
+    :data:`MIN_SKIN_SHARE` of the points (module docstring); empty for fewer than two
+    points.  ``tree``: a k-d tree over ``points`` already built (a caller asking more of
+    the same points shares it)."""
     n = len(points)
     k = min(neighbours, n - 1)
     if k < 1:
         return np.empty((0, 2), dtype=np.int64)
-    _, nearest = (tree if tree is not None else cKDTree(points)).query(points, k=k + 1)
-    near, far = np.repeat(np.arange(n), k), nearest[:, 1:].ravel()  # a point is its own nearest
-    chosen = coo_matrix((np.ones(n * k), (near, far)), shape=(n, n)).tocsr()
+    _, nearest = (tree if tree is not None else cKDTree(points)).query(points, k=max(k, STREAK_NEIGHBOURS) + 1)
+    skin = ~on_a_streak(points, nearest) if n > STREAK_NEIGHBOURS else np.ones(n, dtype=bool)
+    near, far = np.repeat(np.arange(n), k), nearest[:, 1 : k + 1].ravel()  # a point is its own nearest
+    off_streaks = skin[near] & skin[far]
+    near, far = near[off_streaks], far[off_streaks]
+    chosen = coo_matrix((np.ones(len(near)), (near, far)), shape=(n, n)).tocsr()
     mutual = sparse_triu(chosen.multiply(chosen.T), k=1).tocoo()  # each pair once, as (lower, higher)
     _, component = connected_components(mutual, directed=False)
     size = np.bincount(component)
-    skin = size[component[mutual.row]] >= MIN_SKIN_SHARE * n
-    return np.column_stack([mutual.row[skin], mutual.col[skin]]).astype(np.int64)
+    kept = size[component[mutual.row]] >= MIN_SKIN_SHARE * n
+    return np.column_stack([mutual.row[kept], mutual.col[kept]]).astype(np.int64)
 
 
 def _crossing_ends(points: np.ndarray, edges: np.ndarray, heights: np.ndarray

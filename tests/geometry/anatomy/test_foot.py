@@ -11,6 +11,7 @@ from scipy.spatial import ConvexHull
 
 from app.geometry.anatomy.foot import BALL_WINDOW, foot_measures
 from app.geometry.placement.place import place_leg
+from app.geometry.sections import neighbour_edges
 from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
 from tests.conftest import fitted
 
@@ -174,3 +175,28 @@ def test_a_clouds_stray_points_and_a_floor_beside_the_foot_are_not_its_sections(
     whole, with_strays = foot_measures(points, None, SOLE), foot_measures(strays, None, SOLE)
     assert with_strays.ball_girth.value_mm == pytest.approx(whole.ball_girth.value_mm, abs=1.5)
     assert with_strays.heel_instep_girth.value_mm == pytest.approx(whole.heel_instep_girth.value_mm, abs=1.5)
+
+
+def test_a_scanners_streaks_off_the_forefoot_are_not_its_sections():
+    """Five streaks of 120 points each, 30-80 mm long, leaving the forefoot's sides
+    sideways at the ball (benchmarks.corpus.degrade.cloud_spikes' streaks): rooted on the
+    skin, their edges would join its component and cross cA's planes a dozen times at one
+    point (a streak read cA 8 mm long, chart_accuracy 8 5).  Their points are joined to
+    nothing beyond the skin's first few millimetres, and cA and cY read within 1 mm of the
+    clean phantom's."""
+    rng = np.random.default_rng(6)
+    points = _phantom()
+    ball = CENTRE_Y + 0.4 * HALF_LENGTH
+    sides = points[(np.abs(points[:, 1] - ball) < 15.0) & (np.abs(points[:, 2] - SOLE - HALF_HEIGHT) < 5.0)
+                   & (np.abs(points[:, 0]) > 0.8 * HALF_WIDTH)]
+    roots = sides[rng.choice(len(sides), 5, replace=False)]
+    outwards = np.sign(roots[:, 0])[:, None] * np.array([1.0, 0.0, 0.0])
+    reach = rng.uniform(0.0, 1.0, (5, 120, 1)) * rng.uniform(30.0, 80.0, (5, 1, 1))
+    streaks = (roots[:, None] + outwards[:, None] * reach).reshape(-1, 3)
+    cloud = np.vstack([points, streaks])
+    edges = neighbour_edges(cloud)
+    off_skin = np.flatnonzero(np.abs(cloud[:, 0]) > HALF_WIDTH + 5.0)
+    assert len(off_skin) > 100 and not np.isin(edges, off_skin).any()
+    whole, streaked = foot_measures(points, None, SOLE), foot_measures(cloud, None, SOLE)
+    assert streaked.ball_girth.value_mm == pytest.approx(whole.ball_girth.value_mm, abs=1.0)
+    assert streaked.heel_instep_girth.value_mm == pytest.approx(whole.heel_instep_girth.value_mm, abs=1.0)
