@@ -196,7 +196,7 @@ def test_a_sparse_clouds_neighbour_graph_crosses_a_slanted_plane_on_the_skin():
 def test_a_sparse_clouds_tape_girths_are_read_on_its_neighbour_graph():
     """A generated adult's left leg (ANSUR II subject 2000, benchmarks.corpus.makehuman)
     subdivided once, its 6.5k vertices as a cloud (a body mesh's vertices: 8 points per
-    mm of height, sparse by app.geometry.fit.pipeline.SPARSE_CLOUD_POINTS_PER_MM), and
+    mm of height, sparse by app.geometry.fit.sparse_clouds.SPARSE_CLOUD_POINTS_PER_MM), and
     60 tape planes from the ankle to the thigh: read where the neighbour graph's edges
     cross them (interpolated round the section's centre), every girth is read and the
     same leg's mesh's within 1.5 mm p95 (0.7 measured); read on the slabs such a cloud

@@ -157,8 +157,9 @@ def slab_half_thickness(points_z: np.ndarray, n_bins: int = N_BINS) -> float:
     above and below it (a 20 mm slab overstates B's girth by ~3 mm).  A cloud as dense as
     a scanner's (40-120k points over a leg: 45-130 points per mm of height) gets 1-3.3
     mm; the 10 mm cap is reached only by sparse clouds (the vertices of a 10-30k vertex
-    body scan: 3-10 points per mm of a leg), which the fit then says
-    (app.geometry.fit.pipeline.SPARSE_CLOUD_POINTS_PER_MM)."""
+    body scan: 3-10 points per mm of a leg), whose tape girths the fit reads on their
+    neighbour graph instead, and says so
+    (app.geometry.fit.sparse_clouds.SPARSE_CLOUD_POINTS_PER_MM)."""
     density = len(points_z) / max(float(np.ptp(points_z)), 1e-9)  # points per mm of height
     return float(np.clip(2.0 * n_bins / density, MIN_HALF_MM, MAX_HALF_MM))
 

@@ -40,7 +40,7 @@ outvoted the skin in its angle bin and read cA up to 32 mm long).  Three rules k
   :data:`MIN_SKIN_SHARE` of the points are kept, so a clump of ghosts or a sheet of
   floor points, joined among themselves, is dropped whole.
 
-On a limb's round sections (a sparse cloud's tape girths, app.geometry.fit.pipeline.
+On a limb's round sections (a sparse cloud's tape girths, app.geometry.fit.sparse_clouds.
 sparse_cloud_graph) a crossing is interpolated in radius and angle about the plane's
 centre instead (:func:`round_edge_crossings`): the chord of a coarse tessellation's edge
 lies a sagitta inside the skin, which its vertices lie on.

@@ -1,0 +1,59 @@
+"""A point cloud too sparse for thin slabs (a body mesh's vertices, a registered
+template's): how dense it is, the neighbour graph its tape girths are read on, and its
+refusal when its sections cannot be closed at all.  Units: mm.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.sections import neighbour_edges
+from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
+
+#: a cloud whose sections cannot be closed (fewer than 90% of them, after bridging the
+#: open ones from their neighbours) and whose slabs hold a point in fewer than this share
+#: of the 5-degree sectors around the leg (median) is too sparse rather than not a leg;
+#: refused as too_sparse with the density found and needed (MIN_CLOUD_POINTS_PER_MM)
+MIN_SECTOR_COVERAGE = 0.6
+#: below this density (the slabs are then thicker than 8 mm), a cloud's girths are
+#: warned about: a thick slab at the ankle minimum reads the wider leg above and below
+SPARSE_CLOUD_POINTS_PER_MM = 18.0
+
+
+def calf_density(local: np.ndarray, d_mm: float) -> float:
+    """A cloud's points per mm of the calf's height, B (z = 0) to D; local (n, 3) calf-frame mm."""
+    return int(np.count_nonzero((local[:, 2] >= 0.0) & (local[:, 2] <= d_mm))) / max(d_mm, 1e-9)
+
+
+def sparse_cloud_graph(local: np.ndarray, faces: np.ndarray | None, d_mm: float) -> np.ndarray | None:
+    """A sparse cloud's neighbour graph (e, 2), its tape girths read on it; None for a
+    mesh or a cloud dense enough for thin slabs.
+
+    Below :data:`SPARSE_CLOUD_POINTS_PER_MM` a slab must be 8-20 mm thick to close a
+    section: a tessellation's rings of vertices, tilted to the plane, fall into it as arcs
+    from different heights, and a bin's one or two points leave the fit to guess between
+    them (on the knee's and thigh's slopes, 1-3 mm of radius per cm of height).  The
+    edges of the mutual nearest-neighbour graph cross the tape's plane exactly in it, as
+    a mesh's triangles do, and each crossing is put round the section's centre, on the
+    skin rather than on the chord (:func:`app.geometry.sections.cloud_edges.round_edge_crossings`).
+    Measured (``benchmarks/chart_accuracy.py 8 11``, the body_vertices and
+    sparse_leg_vertices re-scans against the clean mesh, |error| p95 in mm, slabs ->
+    graph): cB1 4.0-4.6 -> 3.0-3.1, cC 0.7-0.8 -> 0.3-0.4, cD 1.8 -> 0.6-1.4, cG 3.4 ->
+    3.0, cB 0.6-0.7 -> 1.1 (the malleoli's flats, read round).  A dense cloud keeps its
+    thin slabs, which average a scanner's noise over more points than a plane's
+    crossings hold.  local (n, 3) calf-frame mm, B at z = 0; ``d_mm`` D's height."""
+    if faces is not None or calf_density(local, d_mm) >= SPARSE_CLOUD_POINTS_PER_MM:
+        return None
+    return neighbour_edges(local)
+
+
+def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
+    """The refusal of a cloud too sparse to close ``what`` (module constants above)."""
+    return FitFailure(
+        FailureReason.TOO_SPARSE,
+        f"the cloud is too sparse to close {what}: it has {density:.1f} points per mm of the calf's height and its "
+        f"slabs (up to 20 mm thick) hold points in {covered:.0%} of the 5-degree sectors around the leg (median), so "
+        f"{closed:.0%} of the sections could be closed (90% are needed); a cloud needs about "
+        f"{MIN_CLOUD_POINTS_PER_MM:g} point per mm of the leg's height, {MIN_CLOUD_POINTS_PER_MM * 20:.0f} in each "
+        "slab, spread round the leg: export the scan denser, or as a mesh")
