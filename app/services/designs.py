@@ -79,10 +79,7 @@ def inputs_as_dict(inputs: DesignInputs) -> dict:
 def compute_design(record: CalfRecord, inputs: DesignInputs) -> dict:
     """The design of ``record`` as stored and sent (:func:`design_document`)."""
     chart = record.chart if record.schema_version >= 3 else None
-    fit = record.fit or {}
-    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart,
-                                           fit.get("surface_to_scan"), fit.get("skin_layers"),
-                                           fit.get("sparse_points_per_mm")))
+    return design_document(design_stocking(record.surface, record.landmarks, record.side, inputs, chart, record.fit))
 
 
 def _check_document(check: DesignCheck) -> dict:

@@ -148,17 +148,20 @@ def test_a_design_from_a_surface_off_the_skin_is_for_review():
     record = record_from_fit(result, scan.source_format, scan.units)
     skin = record.fit["surface_to_scan"]
     inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0))
-    on_skin = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, skin)
+    on_skin = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, record.fit)
     assert skin["worst_ring_share"] < 0.05 and on_skin.uncertain_inputs == ()
     off = {**skin, "worst_ring_share": 0.06, "max_mm": 4.3, "worst_ring_height_mm": 326.0}
-    verdict, reasons = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, off).verdict
+    verdict, reasons = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart,
+                                       {**record.fit, "surface_to_scan": off}).verdict
     assert verdict in ("review", "fail") and any("stands up to 4.3 mm off the scan's skin" in r and "326 mm above B" in r
                                                  for r in reasons)
     if on_skin.verdict[0] == "pass":
         assert verdict == "review"
     # an imported record's fit is its own: distances that are not such a dict are no reason
     for junk in ("far", {"worst_ring_share": "x"}, {**skin, "max_mm": None}):
-        assert design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, junk).uncertain_inputs == ()
+        fit = {**record.fit, "surface_to_scan": junk}
+        assert design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, fit).uncertain_inputs == ()
+    assert design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, "junk").uncertain_inputs == ()
 
 
 def test_a_thigh_high_from_a_sparse_cloud_is_for_review(tmp_path):
@@ -180,10 +183,13 @@ def test_a_thigh_high_from_a_sparse_cloud_is_for_review(tmp_path):
     sparse = record.fit["sparse_points_per_mm"]
     assert 1.0 < sparse < 5.0 and any("the cloud is sparse" in w for w in record.warnings)
     inputs = DesignInputs(compression_class="II", fabric=Fabric.linear(10.0), stocking_type="AG")
-    thigh_high = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart,
-                                 sparse_points_per_mm=sparse)
+    thigh_high = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart, record.fit)
     verdict, reasons = thigh_high.verdict
     assert verdict in ("review", "fail") and any("sparse cloud" in r and "cG" in r for r in reasons)
     knee_high = design_stocking(record.surface, record.landmarks, "right", DesignInputs(compression_class="II"),
-                                record.chart, sparse_points_per_mm=sparse)
+                                record.chart, record.fit)
+    for junk in ("dense", -1.0, float("nan"), True):  # an imported record's own entry is no reason
+        imported = design_stocking(record.surface, record.landmarks, "right", inputs, record.chart,
+                                   {**record.fit, "sparse_points_per_mm": junk})
+        assert not any("sparse cloud" in r for r in imported.uncertain_inputs)
     assert not any("sparse cloud" in r for r in knee_high.uncertain_inputs)

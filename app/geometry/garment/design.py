@@ -197,25 +197,26 @@ class DesignInputs:
 
 
 def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, inputs: DesignInputs,
-                    chart: dict | None = None, skin: dict | None = None,
-                    skin_layers: dict | None = None, sparse_points_per_mm: float | None = None) -> StockingDesign:
+                    chart: dict | None = None, fit: dict | None = None) -> StockingDesign:
     """The stocking design (see module docstring).
 
     surface: the calf record's surface; landmarks: name -> {"height_mm", ...} for B, B1,
     C, D; side: "left" | "right" | None; chart: the record's points off the calf (schema
     version 3), which a thigh-high (``inputs.stocking_type`` "AG") needs: cE, cF, cG and
-    the thigh profile; skin: the record's surface -> scan distances (its
-    ``fit.surface_to_scan``, app.geometry.spline.skin_distance.SkinDistance.as_dict): a
-    surface standing off the skin over an arc of a ring makes the design "review";
-    skin_layers: the record's ``fit.skin_layers`` (app.geometry.scan.skin_layers.SkinLayers.as_dict):
-    a cloud holding the skin twice makes it "review" too, and so does a thigh-high from a
-    cloud too sparse for thin slabs (``sparse_points_per_mm``, the record's
-    ``fit.sparse_points_per_mm``: its thigh's points and G may be off).
+    the thigh profile; fit: the record's ``fit`` (what the fit noticed), of which the
+    design reads three entries, each making it "review": ``surface_to_scan`` (the surface
+    -> scan distances, app.geometry.spline.skin_distance.SkinDistance.as_dict: a surface
+    standing off the skin over an arc of a ring), ``skin_layers``
+    (app.geometry.scan.skin_layers.SkinLayers.as_dict: a cloud holding the skin twice) and,
+    for a thigh-high, ``sparse_points_per_mm`` (a cloud too sparse for thin slabs: its
+    thigh's points and G may be off).  An entry of another form (an imported record's) is
+    no reason.
     Raises FitFailure (INVALID_TARGET, INVALID_FABRIC,
     UNREACHABLE_PRESSURE) with the reason.
     """
     if inputs.stocking_type not in STOCKING_TYPES:
         raise FitFailure(FailureReason.INVALID_TARGET, f"stocking_type must be one of {', '.join(STOCKING_TYPES)}")
+    noticed = fit if isinstance(fit, dict) else {}
     thigh_chart = _thigh_chart(chart) if inputs.stocking_type == "AG" else None
     for name in LANDMARK_NAMES:
         if name not in landmarks:
@@ -303,8 +304,9 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
         uncertain_inputs=_uncertain_landmarks(landmarks)
-        + _uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(skin)
-        + _doubled_skin(skin_layers) + _sparse_thigh(sparse_points_per_mm, thigh is not None),
+        + _uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(noticed.get("surface_to_scan"))
+        + _doubled_skin(noticed.get("skin_layers"))
+        + _sparse_thigh(noticed.get("sparse_points_per_mm"), thigh is not None),
     )
 
 
@@ -330,12 +332,15 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
             "ordering",)
 
 
-def _sparse_thigh(points_per_mm: float | None, thigh_high: bool) -> tuple[str, ...]:
+def _sparse_thigh(points_per_mm: object, thigh_high: bool) -> tuple[str, ...]:
     """The sentence for a thigh-high from a cloud too sparse for thin slabs (the fit's own
     warning): a body's 6.5k vertices read cE, cF, cG 3-5 mm off and, on one generated leg,
     G 150 mm low (benchmarks/chart_accuracy.py, body_vertices) - the thigh is knitted from
-    them."""
-    if points_per_mm is None or not thigh_high:
+    them.  ``points_per_mm`` not a positive number (none, or an imported record's own
+    entry): no sentence."""
+    if isinstance(points_per_mm, bool) or not isinstance(points_per_mm, (int, float)) or not thigh_high:
+        return ()
+    if not (np.isfinite(points_per_mm) and points_per_mm > 0):
         return ()
     return (f"the scan is a sparse cloud ({points_per_mm:.1f} points per mm of the calf's height): its thigh's girths "
             "and the gluteal fold G may be off; take cE, cF, cG and lG by tape (RAL-GZ 387) before knitting",)

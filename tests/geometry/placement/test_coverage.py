@@ -134,7 +134,7 @@ def test_a_strip_missing_along_the_leg_is_bridged_with_a_warning_the_whole_leg_h
     assert all(chart[f"c{name}"].uncertainty_mm == bound for name, bound in bounds.items())
     design = design_stocking(record.surface, record.landmarks, "right",
                              DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
-                             record.fit["surface_to_scan"])
+                             record.fit)
     verdict, reasons = design.verdict
     assert verdict in ("review", "fail")
     assert {f"c{name}" for name in bounds} <= {r.split()[0] for r in reasons if "misses an arc" in r}

@@ -74,7 +74,7 @@ def test_the_fit_warns_about_a_doubled_cloud_and_not_about_a_single_one(leg_clou
         assert record.fit["skin_layers"]["doubled"] is doubled
         design = design_stocking(record.surface, record.landmarks, "right",
                                  DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
-                                 record.fit["surface_to_scan"], record.fit["skin_layers"])
+                                 record.fit)
         verdict, reasons = design.verdict
         said = [r for r in reasons if "holds the skin twice" in r and "by tape" in r]
         assert bool(said) is doubled
