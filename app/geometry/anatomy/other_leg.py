@@ -93,14 +93,15 @@ def other_leg_beside(calf_points: np.ndarray, d_mm: float, pixel_mm: float = 10.
     B; ``pixel_mm`` the occupancy cell, at least twice the scan's point spacing so that a
     ring of skin stays one blob.
     """
-    z = calf_points[:, 2]
-    order = np.argsort(z)
-    z_sorted = z[order]
+    n_slabs = len(np.arange(SLAB_MM / 2, d_mm + REACH_ABOVE_D_MM, SLAB_MM))  # ~30, from B up
+    slab = np.floor(calf_points[:, 2] / SLAB_MM).astype(np.int64)
+    inside = np.flatnonzero((slab >= 0) & (slab < n_slabs))  # only the band is sorted, not the scan
+    inside = inside[np.argsort(slab[inside], kind="stable")]
+    bounds = np.searchsorted(slab[inside], np.arange(n_slabs + 1))
     votes: list[float] = []  # -1 left, +1 right, 0 both
     offsets: list[float] = []
-    for level in np.arange(SLAB_MM / 2, d_mm + REACH_ABOVE_D_MM, SLAB_MM):  # ~30 slabs
-        lo, hi = np.searchsorted(z_sorted, [level - SLAB_MM / 2, level + SLAB_MM / 2])
-        areas, centres = slab_blobs(calf_points[order[lo:hi], :2], pixel_mm)
+    for lo, hi in zip(bounds[:-1], bounds[1:]):  # one slab at a time
+        areas, centres = slab_blobs(calf_points[inside[lo:hi], :2], pixel_mm)
         if len(areas) < 2:
             continue
         own = int(np.argmin(np.linalg.norm(centres, axis=1)))

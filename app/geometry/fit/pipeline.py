@@ -36,6 +36,7 @@ from app.geometry.fit.options import FitOptions
 from app.geometry.fit.sparse_clouds import (
     MIN_SECTOR_COVERAGE,
     SPARSE_CLOUD_POINTS_PER_MM,
+    calf_density,
     sparse_cloud_graph,
     too_sparse,
 )
@@ -227,7 +228,7 @@ def fit_calf(
         sections = without_open_arcs(sections)
     valid = sections.valid
     in_calf = np.flatnonzero((local[:, 2] >= b_mm) & (local[:, 2] <= d_mm))
-    density = None if faces is not None else len(in_calf) / max(d_mm - b_mm, 1e-9)  # a cloud's points per mm
+    density = None if faces is not None else calf_density(local, d_mm)  # a cloud's points per mm
     covered = float(np.median(sections.coverage))
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
     if density is not None and valid.mean() < 0.9:  # a sparse cloud's open slabs, from their neighbours
