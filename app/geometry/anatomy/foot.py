@@ -31,7 +31,7 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   15 mm long and cA up to 4 mm short on a body mesh's vertices (0.4-11 mm apart on one
   foot), and a scanner's floor strays into cA 17 mm long.
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
-  nor its heel's corner (:class:`app.geometry.anatomy.sole.Skin`): taken for them they
+  nor its heel's corner (:class:`app.geometry.anatomy.skin_points.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
@@ -46,7 +46,8 @@ import numpy as np
 from scipy.spatial import ConvexHull, cKDTree
 
 from app.geometry.anatomy.level_runs import running_median
-from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM, Skin
+from app.geometry.anatomy.skin_points import Skin
+from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM
 from app.geometry.sections import (
     TAPE_BAND_OFFSETS_MM,
     edge_crossings,
@@ -246,7 +247,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     across = np.cross([0.0, 0.0, 1.0], axis)
     along = below_b @ axis
     # the ends: the third skin point from either end (two stragglers the clean-up left
-    # aside; a cloud's stray points are no skin, app.geometry.anatomy.sole.Skin)
+    # aside; a cloud's stray points are no skin, app.geometry.anatomy.skin_points.Skin)
     skin = Skin(below_b, below_faces is not None)
     every = np.arange(len(below_b))
     heel_end, toe_end = skin.first(every, along, skip=2), skin.first(every, -along, skip=2)

@@ -10,24 +10,8 @@ found from the foot (its anterior cue).  Arrays: points (n, 3), faces (f, 3) or 
   reach lower).
 - **A cloud's stray points are not skin.**  A scanner's ghosts 5-40 mm off the skin and
   a floor's stray points under the heel were taken for its lowest point: the corpus's
-  cloud_outliers read every length 5-12 mm long.  Skin is a surface sampled about evenly:
-  sampled at random with median nearest-neighbour spacing m, a disc of radius r round a
-  point of it holds about ln 2 (r / m)^2 other points (Poisson sampling: a point's
-  nearest neighbour lies beyond m with probability 1/2), 11 at r = STRAY_RADIUS_SPACINGS
-  m, more on a scanner's regular grid; a ghost off the skin holds none, a floor's stray
-  points under the heel one or two.  A cloud's point with fewer than STRAY_NEIGHBOURS
-  (a third of the skin's) is no skin, nor is a point of a scanner's streak, a line of
-  points leaving the skin (its nearest points spread along one line:
-  app.geometry.sections.cloud_edges.STREAK_SHARE).
-  m is local, the median over the SPACING_SAMPLE points nearest the decision (the
-  heel's lowest, for the sole; the foot's ends): a scanner's spacing
-  changes over a foot (a tessellation's vertices: 0.4 mm apart on the heel's back, 1.2
-  mm on the sole), and a spacing taken over the whole foot took the sole's points for
-  strays (lB 1.9 mm short) and, on a body's 6,500 vertices, most of a forefoot's.
-  Only the points that decide - the heel's back, the lowest points, the foot's ends and
-  its heel's corner - are tested.  A
-  mesh's vertices are joined skin (the clean-up removed its stray pieces:
-  app.geometry.scan.cleanup).
+  cloud_outliers read every length 5-12 mm long.  Only skin points decide the sole
+  (:class:`app.geometry.anatomy.skin_points.Skin`).
 - **The heel turns under the sole.**  On a standing foot the back of the heel (the
   calcaneal tuberosity under its pad) is furthest back 21-53 mm above the floor, and
   below that the heel rounds forward into the sole by 12-34 mm (117 scans of 12
@@ -59,20 +43,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from app.geometry.anatomy.level_runs import running_median
+from app.geometry.anatomy.skin_points import Skin
 from app.geometry.sections import mesh_section_segments
-from app.geometry.sections.cloud_edges import STREAK_NEIGHBOURS, on_a_streak
 
-#: a cloud's stray point: fewer than STRAY_NEIGHBOURS within STRAY_RADIUS_SPACINGS median
-#: spacings (module docstring)
-STRAY_RADIUS_SPACINGS = 4.0
-STRAY_NEIGHBOURS = 4
-#: the skin's spacing round the points tested is the median over this many of them
-SPACING_SAMPLE = 2000
-#: the lowest points are tested this many at a time, lowest first
-STRAY_BATCH = 256
 #: stray points lie up to this far off the skin (a scanner's ghosts: 5-40 mm), mm
 STRAY_REACH_MM = 40.0
 #: the heel's back is read in a band this far either side of its middle (x), mm, from the
@@ -97,58 +72,6 @@ class Sole:
 
     height_mm: float | None
     reason: str | None = None
-
-
-class Skin:
-    """Which of a scan's points are skin (module docstring), asked of the few points that
-    decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
-    STRAY_RADIUS_SPACINGS median spacings of the points round them and not on a streak
-    (app.geometry.sections.cloud_edges.on_a_streak).  ``points`` (n, 3) mm; ``is_mesh``: they are a mesh's vertices;
-    ``tree``: a cloud's k-d tree over ``points`` when the caller has built one."""
-
-    def __init__(self, points: np.ndarray, is_mesh: bool, tree: cKDTree | None = None):
-        self.points = points
-        if is_mesh or len(points) <= STRAY_NEIGHBOURS + 1:
-            self.tree = None
-        else:
-            self.tree = tree if tree is not None else cKDTree(points)
-
-    def of(self, index: np.ndarray, near: np.ndarray | None = None) -> np.ndarray:
-        """(k,) bool for the points ``index`` (k,), the spacing the median over the points
-        ``near`` (indices; ``index`` itself when None)."""
-        if self.tree is None or not len(index):
-            return np.ones(len(index), dtype=bool)
-        near = index if near is None else near
-        sample = self.points[near[:: max(len(near) // SPACING_SAMPLE, 1)]]
-        radius = STRAY_RADIUS_SPACINGS * float(np.median(self.tree.query(sample, k=2)[0][:, 1]))
-        dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
-        # a streak: its nearest points spread along one line, where a surface's spread in two
-        _, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
-        return dense & ~on_a_streak(self.points, nearest)
-
-    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
-        """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
-        rising (its index into the points), None when there are not so many; the spacing
-        is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
-        if len(index) <= skip:
-            return None
-        if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
-            return int(index[np.argpartition(key, skip)[skip]])
-        leading = np.argpartition(key, min(SPACING_SAMPLE, len(key) - 1))[:SPACING_SAMPLE]
-        order = index[leading[np.argsort(key[leading], kind="stable")]]  # the spacing is theirs
-        found = 0
-        for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
-            batch = order[start:start + STRAY_BATCH]
-            skin = np.flatnonzero(self.of(batch, order))
-            if found + len(skin) > skip:
-                return int(batch[skin[skip - found]])
-            found += len(skin)
-        if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
-            rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
-            skin = np.flatnonzero(self.of(index[rest], order))
-            if found + len(skin) > skip:
-                return int(index[rest[skin[skip - found]]])
-        return None
 
 
 def _heel_back(heel: np.ndarray, faces: np.ndarray | None, middle_x: float, lowest_mm: float) -> tuple[float, float] | None:
