@@ -298,3 +298,30 @@ def test_a_fold_lost_in_a_sparse_clouds_noise_is_not_placed():
             assert top.height_mm == pytest.approx(D + FOLD, abs=3.0)
         else:
             assert top.height_mm is None and "times the scatter of its bend elsewhere" in top.reason, top.reason
+
+
+def test_a_scanners_ghosts_behind_the_buttock_at_the_scans_cut_are_no_skin():
+    """The scan's top cut at a slant (40 mm lower at the back than at the front), so the
+    bands under its top hold the front of the thigh only; three scanner's ghosts 6-10 mm
+    behind the buttock, within 8 mm of the top, stand alone in their sectors there and,
+    weighed as a sector each, held a band's rearmost 2%: the back did not come forward
+    above the buttock and the scan read as cut below the fold (the corpus's
+    cloud_outliers, benchmarks/chart_accuracy.py 8 11 leg 3: lG 10 mm high, or no G).
+    A ghost has no skin round it (app.geometry.anatomy.skin_points.Skin): G is the
+    ghost-free cloud's, with 0.7% more ghosts scattered 5-40 mm off the whole leg or not."""
+    cloud = _leg(top=FOLD + 140.0, centre_y=_smooth_fold_centre_y)
+    centre = _smooth_fold_centre_y(cloud[:, 2] - D)
+    cloud = cloud[cloud[:, 2] - D <= FOLD + 110.0 + 0.3 * (cloud[:, 1] - centre)]
+    clean = thigh_measures(cloud, None, D, knee_bent=False).top_of_thigh
+    assert clean.height_mm == pytest.approx(D + FOLD, abs=4.0)
+    behind = np.column_stack([[-30.0, 0.0, 30.0], cloud[:, 1].min() - np.array([6.0, 8.0, 10.0]),
+                              cloud[:, 2].max() - np.array([3.0, 5.0, 7.0])])
+    rng = np.random.default_rng(3)
+    near = cloud[rng.choice(len(cloud), int(0.007 * len(cloud)))]
+    away = rng.normal(size=near.shape)
+    scattered = near + away / np.linalg.norm(away, axis=1, keepdims=True) * rng.uniform(5.0, 40.0, (len(near), 1))
+    for ghosts in (behind, np.vstack([behind, scattered])):
+        found = thigh_measures(np.vstack([cloud, ghosts]), None, D, knee_bent=False).top_of_thigh
+        assert found.reason is None
+        assert found.height_mm == pytest.approx(clean.height_mm, abs=0.5)
+        assert found.girth_mm == pytest.approx(clean.girth_mm, abs=0.5)
