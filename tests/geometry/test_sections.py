@@ -44,6 +44,36 @@ def test_a_hole_in_the_mesh_is_bridged_in_the_polar_domain():
     assert np.abs(sections.radii_mm - 45).max() < 0.5
 
 
+def test_a_hole_in_a_meshs_flat_side_is_read_along_the_leg_not_round_the_section():
+    """An oval tube (semi-axes 55 + 0.05 z by 40 mm, its flat sides at +-y) with a hole 70
+    degrees wide and 40 mm tall in a flat side.  Sliced every 2 mm, the rays through the
+    hole are read between the sections above and below it (AXIAL_FILL_SPAN_MM): the
+    girths within 0.3 mm of the whole tube's.  One plane sliced alone has nothing above or
+    below it: read round the section, the straight line in angle across the flat side
+    misses it by millimetres.  A hole taller than AXIAL_FILL_SPAN_MM is read round the
+    section as before."""
+    heights = np.arange(0.0, 302.0, 2.0)
+    whole = tube_mesh(heights, 55.0 + 0.05 * heights, np.full(len(heights), 40.0))
+    centres = whole.triangles_center
+    angle = np.arctan2(centres[:, 1] / 40.0, centres[:, 0] / (55.0 + 0.05 * centres[:, 2]))
+    in_flat_side = np.abs(angle - np.pi / 2) < np.radians(35.0)
+    planes = np.arange(101.0, 200.0, 2.0)
+    intact = slice_mesh_polar(whole.vertices, whole.faces, planes).circumferences()
+    for tall_mm, along in ((40.0, True), (80.0, False)):
+        faces = whole.faces[~(in_flat_side & (np.abs(centres[:, 2] - 150.0) < tall_mm / 2))]
+        sections = slice_mesh_polar(whole.vertices, faces, planes)
+        holed = sections.coverage < 1.0
+        assert holed.sum() >= tall_mm / 2 - 2 and sections.valid.all()
+        error = np.abs(sections.circumferences() - intact)[holed]
+        if along:
+            assert error.max() < 0.3
+        else:  # read round the section
+            assert error.max() > 1.0
+    alone = slice_mesh_polar(whole.vertices, whole.faces[~(in_flat_side & (np.abs(centres[:, 2] - 150.0) < 20.0))],
+                             np.array([151.0]))
+    assert alone.coverage[0] < 1.0 and abs(alone.circumferences()[0] - intact[25]) > 1.0
+
+
 def test_noisy_point_cloud_is_fitted_across_gaps():
     """Ellipse 55 x 40 mm, 0.3 mm noise, a 34 degree strip never scanned."""
     rng = np.random.default_rng(0)
