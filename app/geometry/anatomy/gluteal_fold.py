@@ -167,7 +167,7 @@ def _skin_rows(points: np.ndarray, source: np.ndarray, group: np.ndarray, y: np.
     tested = np.unique(source[y <= level])
     if not len(tested):
         return np.ones(len(source), dtype=bool)
-    is_skin = Skin(points[shell], is_mesh=False).of(np.searchsorted(shell, tested))
+    is_skin = Skin(points[shell], is_mesh=False).of_each(np.searchsorted(shell, tested))
     strays = tested[~is_skin]
     return ~np.isin(source, strays)
 
