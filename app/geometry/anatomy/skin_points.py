@@ -52,6 +52,13 @@ STRAY_BATCH = 256
 #: mm low; at 4, above every skin point measured, the ghosts more than about 10 spacings
 #: off the skin are strays (the one that held the back of a thigh's band: 5)
 STRAY_REACH_RATIO = 4.0
+#: :meth:`Skin.of_each`: a point's STRAY_NEIGHBOURS-th nearest distance over the median of
+#: the points tested.  A side scanned 4 times sparser has its spacing twice the dense
+#: side's, the median lying between, and a tessellation's vertices spread 0.4-20 mm
+#: apart: on the backs of thighs it reached 4.0 at most on the cloud sparse on one side,
+#: 4.9 on BodyParts3D's vertices, 2.2 on an even cloud, 1.5 on a body mesh's vertices;
+#: twice the most measured
+STRAY_ISOLATION = 8.0
 
 
 class Skin:
@@ -85,17 +92,27 @@ class Skin:
         """(k,) bool for the points ``index`` (k,) spread over a scan whose spacing changes
         among them (the whole back of a thigh; a scanner that saw one side at a slant, the
         corpus's cloud_uneven, samples it 4 times sparser, and a tessellation's vertices
-        crowd and thin out along a crease): a point is a stray when its STRAY_NEIGHBOURS-th
-        nearest point lies more than :data:`STRAY_REACH_RATIO` times as far as the median
-        of the same distance of its STREAK_NEIGHBOURS nearest points - the skin round it,
-        for a ghost the skin it floats off - or it is on a streak.  One median spacing over
-        them all took 455 of a sparse side's 37k points for strays and the fold for noise."""
+        crowd and thin out along a crease).  A point is a stray when its
+        STRAY_NEIGHBOURS-th nearest point lies
+
+        - more than :data:`STRAY_REACH_RATIO` times as far as the median of the same
+          distance of its STREAK_NEIGHBOURS nearest points: the skin round it, for a ghost
+          near the skin the skin it floats off; or
+        - more than :data:`STRAY_ISOLATION` times as far as the median over all the
+          points tested: a ghost far off the skin has other ghosts nearest (700 ghosts
+          round a leg lie 20-40 mm apart) and reads as their "skin";
+
+        or when it is on a streak.  One median spacing over them all, as the sole's test
+        reads it (4 spacings), took 455 of a sparse side's 37k points for strays and the
+        fold for noise."""
         if self.tree is None or not len(index):
             return np.ones(len(index), dtype=bool)
         distance, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
+        reach = distance[:, STRAY_NEIGHBOURS]
         around = self.tree.query(self.points[nearest[:, 1:].ravel()], k=STRAY_NEIGHBOURS + 1)[0][:, -1]
-        dense = distance[:, STRAY_NEIGHBOURS] <= STRAY_REACH_RATIO * np.median(around.reshape(len(index), -1), axis=1)
-        return dense & ~on_a_streak(self.points, nearest)
+        near_skin = reach <= STRAY_REACH_RATIO * np.median(around.reshape(len(index), -1), axis=1)
+        in_skin = reach <= STRAY_ISOLATION * float(np.median(reach))
+        return near_skin & in_skin & ~on_a_streak(self.points, nearest)
 
     def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
