@@ -37,6 +37,7 @@ from app.geometry.fit.sparse_clouds import (
     MIN_SECTOR_COVERAGE,
     SPARSE_CLOUD_POINTS_PER_MM,
     calf_density,
+    knee_waist_on_graph,
     sparse_cloud_graph,
     too_sparse,
 )
@@ -146,8 +147,21 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
     where = leg.placement
     local = where.frame.to_calf(leg.points)
     graph = sparse_cloud_graph(local, leg.faces, where.d_mm)
-    result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where, n_scan_points=n_scan_points,
-                      graph=graph)
+    slabs_where = where
+    if graph is not None and not where.d_at_window_edge:  # a sparse cloud's D read again on its graph
+        d_mm, at_edge = knee_waist_on_graph(local, graph, where.d_mm, where.d_at_scan_edge)
+        where = dataclasses.replace(where, d_mm=d_mm, d_at_scan_edge=at_edge)
+    try:
+        result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
+                          n_scan_points=n_scan_points, graph=graph)
+    except FitFailure as failure:
+        # D's layer has no sections above it to bridge it from: where the graph's D is a
+        # slab too sparse to close, the slabs' own D (1.4 points per mm: a body's 7k vertices)
+        if where is slabs_where or failure.reason is not FailureReason.TOO_SPARSE:
+            raise
+        where = slabs_where
+        result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
+                          n_scan_points=n_scan_points, graph=graph)
     result.timings["calf_frame"] = placing_s
     # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.geometry.anatomy.landmarks import smooth_profile
+from app.geometry.anatomy.waists import TAPE_RESOLUTION_MM, WAIST_FIT_MM, WAIST_MIN_FLANK_MM, waist_vertex
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.sections import neighbour_edges
+from app.geometry.sections import neighbour_edges, tape_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 
 #: a cloud whose sections cannot be closed (fewer than 90% of them, after bridging the
@@ -46,6 +48,46 @@ def sparse_cloud_graph(local: np.ndarray, faces: np.ndarray | None, d_mm: float)
     if faces is not None or calf_density(local, d_mm) >= SPARSE_CLOUD_POINTS_PER_MM:
         return None
     return neighbour_edges(local)
+
+
+#: the knee waist read again on the graph: its girth every WAIST_STEP_MM over this far
+#: either side of the slabs' D, mm
+WAIST_REACH_MM = 2 * WAIST_FIT_MM
+WAIST_STEP_MM = 2.0
+
+
+def knee_waist_on_graph(local: np.ndarray, graph: np.ndarray, d_mm: float, at_scan_edge: bool) -> tuple[float, bool]:
+    """D's height (mm) read again on a sparse cloud's neighbour graph, and whether it is
+    still at the scan's edge.  The waist's vertex (:func:`app.geometry.anatomy.waists.waist_vertex`,
+    the rule the placement reads it by) of the graph's tape girths every WAIST_STEP_MM
+    within WAIST_REACH_MM of the slabs' ``d_mm``, round the lowest of them within
+    WAIST_FIT_MM of it; ``d_mm`` itself where the graph closes too few of those sections.
+    A D the slabs took at the scan's edge (``at_scan_edge``) moves only to a vertex the
+    graph reads inside the scan: WAIST_MIN_FLANK_MM under its last section, whose girth
+    is TAPE_RESOLUTION_MM more (a waist reached, as
+    :func:`app.geometry.anatomy.waists.minimum_reached_at_edge` asks of the edge).
+
+    The placement reads the profile on slabs up to 20 mm thick, whose girths scatter by
+    3-8 mm on a body mesh's vertices: the vertex of a flat knee waist moved with that
+    scatter, D 6-12 mm off the clean mesh's (benchmarks/chart_accuracy.py 8 11:
+    body_vertices and sparse_leg_vertices, legs 3 and 4); the graph reads a plane's girth
+    within 0.7 mm p95 (:func:`sparse_cloud_graph`) and put those D within 1.2 mm of the
+    clean mesh's.  local (n, 3) calf-frame mm, B at z = 0; graph (e, 2) its edges."""
+    top = float(local[:, 2].max())
+    heights = np.arange(d_mm - WAIST_REACH_MM, min(d_mm + WAIST_REACH_MM, top - WAIST_STEP_MM), WAIST_STEP_MM)
+    girth = tape_girths(local, None, heights, graph)
+    measured = np.isfinite(girth)
+    near = np.flatnonzero((np.abs(heights - d_mm) <= WAIST_FIT_MM) & measured)
+    if measured.sum() < 10 or not len(near):
+        return d_mm, at_scan_edge
+    lowest = int(near[np.argmin(smooth_profile(heights, girth)[near])])
+    vertex = waist_vertex(heights, girth, lowest, float(heights[0]), float(heights[-1]))
+    if not at_scan_edge:
+        return vertex, False
+    last = int(np.flatnonzero(measured)[-1])
+    inside = (heights[last] - vertex >= WAIST_MIN_FLANK_MM
+              and girth[last] - np.interp(vertex, heights[measured], girth[measured]) >= TAPE_RESOLUTION_MM)
+    return (vertex, False) if inside else (d_mm, True)
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
