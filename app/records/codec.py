@@ -64,7 +64,7 @@ import numpy as np
 
 from app.geometry.anatomy import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
-from app.geometry.fit.pipeline import FitResult
+from app.geometry.fit.result import FitResult
 from app.geometry.spline.bounds import check_leg_tube
 from app.geometry.spline.nurbs import NurbsSurface
 from app.records.surface_codec import MAX_CONTROL_MM, parse_surface, surface_document

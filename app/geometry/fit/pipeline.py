@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,12 +26,13 @@ from app.geometry.anatomy.feature_layers import (
     layer_heights,
 )
 from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
-from app.geometry.anatomy.foot import FootMeasures, foot_measures
+from app.geometry.anatomy.foot import foot_measures
 from app.geometry.anatomy.sole import find_sole
-from app.geometry.anatomy.thigh import ThighMeasures, thigh_measures
+from app.geometry.anatomy.thigh import thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.fit.leg_model import LegModelOutcome, leg_model_of
+from app.geometry.fit.leg_model import leg_model_of
 from app.geometry.fit.options import FitOptions
+from app.geometry.fit.result import FitResult
 from app.geometry.fit.sparse_clouds import (
     MIN_SECTOR_COVERAGE,
     SPARSE_CLOUD_POINTS_PER_MM,
@@ -45,13 +45,13 @@ from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, open_arcs_failure, without_open_arcs
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
-from app.geometry.scan.skin_layers import SkinLayers, skin_layers
-from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections, slice_polar, tape_band_girths
+from app.geometry.scan.skin_layers import skin_layers
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, slice_polar, tape_band_girths
 from app.geometry.sections.polar import bridge_sections
-from app.geometry.spline.distance import SurfaceError, error_statistics
-from app.geometry.spline.lsq import LsqFit, LsqGrid, fit_lsq_surface
-from app.geometry.spline.nurbs import NurbsSurface, surface_from_layers
-from app.geometry.spline.skin_distance import SkinDistance, surface_to_scan
+from app.geometry.spline.distance import error_statistics
+from app.geometry.spline.lsq import LsqGrid, fit_lsq_surface
+from app.geometry.spline.nurbs import surface_from_layers
+from app.geometry.spline.skin_distance import surface_to_scan
 
 #: the error index of a point cloud is computed on at most this many of its calf points
 #: (a fixed stride along the leg, rounded up).  E is an RMS: from n points its relative
@@ -73,43 +73,6 @@ MIN_POINTS_PER_CONTROL = 10
 #: so a mesh is warned about only with fewer vertices than control points: its
 #: triangles are then larger than the net's patches
 MIN_VERTICES_PER_CONTROL = 1
-
-
-@dataclass(frozen=True)
-class FitResult:
-    """Everything the pipeline produced (calf-frame mm unless stated)."""
-
-    surface: NurbsSurface
-    frame: cf.CalfFrame
-    landmarks: Landmarks
-    sections: PolarSections  # the resampled sections between B and D
-    layer_sections: PolarSections  # the 7 feature layers
-    layer_points: np.ndarray  # (7, m, 3) the data grid
-    feature_angles_rad: np.ndarray  # (m,)
-    error: SurfaceError
-    side: str | None
-    n_scan_points: int
-    options: FitOptions
-    timings: dict = field(default_factory=dict)
-    placement: LegPlacement | None = None
-    lsq: LsqFit | None = None  # mode "lsq": the grid and the correction rounds
-    sole_mm: float | None = None  # calf-frame z of the sole (the heel's lowest skin) when the scan has it
-    #: why a scan with its foot in it has no sole to measure lengths from (app.geometry.anatomy.sole)
-    sole_reason: str | None = None
-    skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
-    skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
-    #: a cloud too sparse for thin slabs (SPARSE_CLOUD_POINTS_PER_MM): its points per mm of
-    #: the calf's height (the fit warns; a thigh-high designed from it is "review")
-    sparse_points_per_mm: float | None = None
-    fit_warnings: tuple = ()  # what the fit itself noticed (the surface off the skin, too few points)
-    foot: FootMeasures | None = None  # foot length, cA, cY (app.geometry.anatomy.foot) when measured
-    thigh: ThighMeasures | None = None  # cE, cF, cG (app.geometry.anatomy.thigh) when measured
-    #: the leg's surface from B to G when the scan reaches G (app.geometry.fit.leg_model), or why not
-    leg_model: LegModelOutcome | None = None
-
-    @property
-    def warnings(self) -> list[str]:
-        return (list(self.placement.warnings) if self.placement is not None else []) + list(self.fit_warnings)
 
 
 def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
