@@ -144,8 +144,8 @@ def _rearmost(group: np.ndarray, y: np.ndarray, weight: np.ndarray, n_heights: i
 def _sector_weights(group: np.ndarray, x: np.ndarray, y: np.ndarray, n_heights: int) -> np.ndarray:
     """(m,) each point's weight in its band: 1 / the number of its band's points in its
     sector (CLOUD_SECTORS about the band's mean x, y), so each sector of the section counts
-    the same however densely the scanner sampled it (a mesh's section is its plane's cut
-    of every triangle, whatever the density).  group (m,) bands 0..n_heights-1; x, y (m,) mm."""
+    the same however densely the scanner sampled it or the mesh's triangles cut it.
+    group (m,) bands 0..n_heights-1; x, y (m,) mm."""
     count = np.maximum(np.bincount(group, minlength=n_heights), 1)
     centre_x = np.bincount(group, x, minlength=n_heights) / count
     centre_y = np.bincount(group, y, minlength=n_heights) / count
@@ -206,7 +206,11 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
     +-PROFILE_SMOOTH_MM.  NaN where there is nothing.  mm.
 
     A mesh's section points are its exact plane-section segment ends
-    (:func:`app.geometry.sections.mesh_section_segments`).  A cloud has no points on the
+    (:func:`app.geometry.sections.mesh_section_segments`), their percentile one of the
+    section's angle as a cloud's is (below): of the segment ends, spread along the skin
+    by its triangles, it reached less far round a flat back than the cloud's and put the
+    clean meshes' G 1-3.7 mm under their own clouds' (benchmarks/chart_accuracy.py 8 11:
+    every re-scan's lG read high, p95 5.2 mm).  A cloud has no points on the
     plane: its section is the band of points within CLOUD_PROFILE_HALF_MM of the height,
     each brought to the height along the back's slope - y less the slope times the point's
     height above the plane (a first-order Taylor step), the slope read on the band's
@@ -217,7 +221,8 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(points, faces, heights)
         group = np.repeat(plane, 2)
-        return _smoothed(heights, _rearmost(group, segments[:, :, 1].ravel(), np.ones(len(group)), len(heights)))
+        x, y = segments[:, :, 0].ravel(), segments[:, :, 1].ravel()
+        return _smoothed(heights, _rearmost(group, y, _sector_weights(group, x, y, len(heights)), len(heights)))
     reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
     # only the points within reach of a height (the foot's and shank's are not the thigh's)
     points = points[(points[:, 2] >= heights[0] - (reach + 0.5) * STEP_MM)
