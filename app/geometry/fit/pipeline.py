@@ -36,6 +36,7 @@ from app.geometry.fit.result import FitResult
 from app.geometry.fit.sparse_clouds import (
     MIN_SECTOR_COVERAGE,
     SPARSE_CLOUD_POINTS_PER_MM,
+    b1_on_graph,
     calf_density,
     knee_waist_on_graph,
     sparse_cloud_graph,
@@ -222,7 +223,9 @@ def fit_calf(
     # B1 halfway up the rise of the tape's girths, not of the chords' perimeters, which a
     # scanner's noise zig-zags longer - by 5 mm at the ankle and 3 at the calf on a mesh
     # with 0.3-1 mm of noise, moving the level and B1 with it (b1_height)
-    b1_mm = b1_height(heights, sections.tape_perimeters(), b_mm, c_mm)
+    b1_mm = None if graph is None else b1_on_graph(local, graph, b_mm, c_mm)  # a sparse cloud's on its graph
+    if b1_mm is None:
+        b1_mm = b1_height(heights, sections.tape_perimeters(), b_mm, c_mm)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if faces is not None:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from app.geometry.anatomy.feature_layers import b1_height
 from app.geometry.anatomy.landmarks import smooth_profile
 from app.geometry.anatomy.waists import TAPE_RESOLUTION_MM, WAIST_FIT_MM, WAIST_MIN_FLANK_MM, waist_vertex
 from app.geometry.errors import FailureReason, FitFailure
@@ -88,6 +89,19 @@ def knee_waist_on_graph(local: np.ndarray, graph: np.ndarray, d_mm: float, at_sc
     inside = (heights[last] - vertex >= WAIST_MIN_FLANK_MM
               and girth[last] - np.interp(vertex, heights[measured], girth[measured]) >= TAPE_RESOLUTION_MM)
     return (vertex, False) if inside else (d_mm, True)
+
+
+def b1_on_graph(local: np.ndarray, graph: np.ndarray, b_mm: float, c_mm: float) -> float | None:
+    """B1's height (mm) on a sparse cloud's neighbour graph: halfway up the rise of its
+    tape girths from B to C (:func:`app.geometry.anatomy.feature_layers.b1_height`), read
+    every WAIST_STEP_MM on the graph rather than on the fit's slabs, whose girths scatter
+    by 3-8 mm on a body mesh's vertices (:func:`knee_waist_on_graph`); None where the
+    graph closes fewer than 10 of those sections.  B1 lies on the calf's steepest rise,
+    1-1.5 mm of girth per mm of height: where its height goes, cB1 follows.  local (n, 3)
+    calf-frame mm, B at z = 0; graph (e, 2)."""
+    rise = np.arange(b_mm, c_mm + WAIST_STEP_MM, WAIST_STEP_MM)
+    girth = tape_girths(local, None, rise, graph)
+    return b1_height(rise, girth, b_mm, c_mm) if np.isfinite(girth).sum() >= 10 else None
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
