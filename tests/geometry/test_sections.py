@@ -2,10 +2,12 @@
 
 import numpy as np
 import pytest
+import trimesh
 from scipy.spatial import ConvexHull
 
 from app.geometry.sections import (
     edge_crossings,
+    mesh_section_segments,
     neighbour_edges,
     polygon_perimeter,
     ray_angles,
@@ -72,6 +74,39 @@ def test_a_hole_in_a_meshs_flat_side_is_read_along_the_leg_not_round_the_section
     alone = slice_mesh_polar(whole.vertices, whole.faces[~(in_flat_side & (np.abs(centres[:, 2] - 150.0) < 20.0))],
                              np.array([151.0]))
     assert alone.coverage[0] < 1.0 and abs(alone.circumferences()[0] - intact[25]) > 1.0
+
+
+def _ridged_tube(heights: np.ndarray, n_around: int = 256) -> trimesh.Trimesh:
+    """A tube (n, 3 vertices; faces between rings) whose rings of radius 45 + 0.05 z mm
+    carry a ridge along the leg at 90 degrees, 6 mm high and about 35 degrees wide (a
+    tendon's or the shin's crest), open at both ends."""
+    theta = np.linspace(0.0, 2.0 * np.pi, n_around, endpoint=False)
+    r = 45.0 + 0.05 * heights[:, None] + 6.0 * np.exp(-(((theta[None, :] - np.pi / 2) / 0.3) ** 2))
+    rings = np.stack([r * np.cos(theta), r * np.sin(theta), np.broadcast_to(heights[:, None], r.shape)], axis=-1)
+    i, j = np.meshgrid(np.arange(len(heights) - 1), np.arange(n_around), indexing="ij")
+    a, b = i * n_around + j, i * n_around + (j + 1) % n_around
+    c, d = b + n_around, a + n_around
+    faces = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    return trimesh.Trimesh(rings.reshape(-1, 3), faces, process=False)
+
+
+def test_a_tape_across_a_hole_in_a_meshs_ridge_reads_the_skin_along_the_leg():
+    """A hole 40 mm tall over the ridge (70 degrees of the section): a tape's girth at
+    planes through the hole is read with the rays through the hole taken along the leg
+    (sections_across_holes), within 0.3 mm of the whole tube's; the fit round the
+    section's points alone knows nothing of the ridge in the hole and reads it short."""
+    heights = np.arange(0.0, 302.0, 2.0)
+    whole = _ridged_tube(heights)
+    centres = whole.triangles_center
+    in_hole = (np.abs(np.arctan2(centres[:, 1], centres[:, 0]) - np.pi / 2) < np.radians(35.0)) & (
+        np.abs(centres[:, 2] - 150.0) < 20.0)
+    planes = np.array([135.0, 143.0, 151.0, 159.0, 165.0])
+    intact = tape_girths(whole.vertices, whole.faces, planes)
+    assert np.abs(tape_girths(whole.vertices, whole.faces[~in_hole], planes) - intact).max() < 0.3
+    plane, seg = mesh_section_segments(whole.vertices, whole.faces[~in_hole], planes)
+    ends = np.column_stack([seg.reshape(-1, 2), np.repeat(planes[plane], 2)])
+    round_the_section = slice_points_polar(ends, planes, 360, half_thickness=1e-6, widen=False).tape_perimeters()
+    assert (intact - round_the_section).min() > 1.0
 
 
 def test_noisy_point_cloud_is_fitted_across_gaps():

@@ -11,11 +11,13 @@ and :func:`tape_girths` choose between mesh and cloud.  Units: mm.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
 from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges, round_edge_crossings
-from app.geometry.sections.mesh import mesh_section_segments, slice_mesh_polar
+from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
 __all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "edge_crossings", "group_median", "largest_gap", "mesh_section_segments",
@@ -58,7 +60,17 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
         ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
-        return slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
+        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
+        holed = holed_sections(plane, seg, len(heights))
+        if not holed.any():
+            return sections
+        # a hole's rays read along the leg (sections_across_holes): round the section the
+        # fit's curve cuts across it as a chord does, short of the skin by up to 3 mm of
+        # girth where a hole sits on the ankle's flat (chart_accuracy 8 11, leg 3 holes)
+        across = sections_across_holes(points, faces, heights[holed], 360)
+        radii, centroids = sections.radii_mm.copy(), sections.centroids_mm.copy()
+        radii[holed], centroids[holed] = across.radii_mm, across.centroids_mm
+        return dataclasses.replace(sections, radii_mm=radii, centroids_mm=centroids)
     if edges is not None:
         if np.any(np.diff(heights) < 0):
             raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")

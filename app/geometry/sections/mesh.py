@@ -198,6 +198,49 @@ def _cast_rays(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray, n_angl
     return best.reshape(k, n_angles)
 
 
+def _segment_centroids(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
+    """(k, 2) the perimeter-weighted centroid of each section's segments (plane (s,), seg
+    (s, 2, 2)), mm; NaN for a section without segments."""
+    length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
+    mid = seg.mean(axis=1)
+    total = np.bincount(plane, weights=length, minlength=k)
+    centroids = np.full((k, 2), np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        centroids[:, 0] = np.bincount(plane, weights=length * mid[:, 0], minlength=k) / total
+        centroids[:, 1] = np.bincount(plane, weights=length * mid[:, 1], minlength=k) / total
+    return centroids
+
+
+#: the rays a mesh's section is tested for a hole on (5 degrees: the paper's)
+HOLE_TEST_RAYS = 72
+
+
+def holed_sections(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
+    """(k,) bool: the sections (plane (s,), seg (s, 2, 2) from :func:`mesh_section_segments`
+    over k heights) with segments whose contour a ray from their centroid misses
+    somewhere (one of HOLE_TEST_RAYS): a hole in the mesh (a closed contour is hit by
+    every ray from inside it)."""
+    raw = _cast_rays(plane, seg, np.nan_to_num(_segment_centroids(plane, seg, k)), HOLE_TEST_RAYS)
+    hits = np.isfinite(raw).sum(axis=1)
+    return (hits > 0) & (hits < HOLE_TEST_RAYS)
+
+
+def sections_across_holes(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int) -> PolarSections:
+    """Sections of a mesh at ``heights`` (h,) mm whose contours have holes, on ``n_angles``
+    rays, each read with the mesh's sections every 2 mm within AXIAL_FILL_SPAN_MM / 2
+    above and below it, so that its rays through the hole are read along the leg
+    (:func:`_fill_along_axis`) as far as the hole allows.  vertices (n, 3) mm, faces (f, 3)."""
+    heights = np.asarray(heights, dtype=np.float64)
+    offsets = np.arange(-AXIAL_FILL_SPAN_MM / 2, AXIAL_FILL_SPAN_MM / 2 + 1.0, 2.0)
+    stack = np.unique(np.concatenate([heights, (heights[:, None] + offsets[None, :]).ravel()]))
+    sliced = slice_mesh_polar(vertices, faces, stack, n_angles)
+    rows = np.searchsorted(stack, heights)
+    return PolarSections(heights, sliced.centroids_mm[rows], sliced.radii_mm[rows], sliced.angles_rad,
+                         sliced.coverage[rows],
+                         None if sliced.largest_gap_deg is None else sliced.largest_gap_deg[rows],
+                         None if sliced.gap_middle_rad is None else sliced.gap_middle_rad[rows])
+
+
 def slice_mesh_polar(
     vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int = 72, recentre: bool = True
 ) -> PolarSections:
@@ -212,17 +255,11 @@ def slice_mesh_polar(
     k = len(heights)
     angles = ray_angles(n_angles)
     plane, seg = mesh_section_segments(vertices, faces, heights)
-    centroids = np.full((k, 2), np.nan)
     if plane.size == 0:
-        return PolarSections(heights, centroids, np.full((k, n_angles), np.nan), angles, np.zeros(k), np.full(k, 360.0),
-                             np.full(k, np.nan))
+        return PolarSections(heights, np.full((k, 2), np.nan), np.full((k, n_angles), np.nan), angles, np.zeros(k),
+                             np.full(k, 360.0), np.full(k, np.nan))
 
-    length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
-    mid = seg.mean(axis=1)
-    total = np.bincount(plane, weights=length, minlength=k)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        centroids[:, 0] = np.bincount(plane, weights=length * mid[:, 0], minlength=k) / total
-        centroids[:, 1] = np.bincount(plane, weights=length * mid[:, 1], minlength=k) / total
+    centroids = _segment_centroids(plane, seg, k)
     raw = _cast_rays(plane, seg, np.nan_to_num(centroids), n_angles)
     radii = _fill_polar_gaps(raw, (heights, np.nan_to_num(centroids), angles))
     if recentre:
