@@ -86,8 +86,9 @@ class Landmarks:
         return out
 
 
-def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float) -> float:
-    """B1: where the girth has risen half of the way from B to C.
+def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float, level: float | None = None) -> float:
+    """B1: where the girth has risen half of the way from B to C (to ``level`` when given:
+    halfway between B's and C's girths read some surer way, mm).
 
     The paper (section 2.2, Fig. 3b) puts B1 where the girth rises fastest, the largest
     dC/dh between B and C: the transition of the Achilles tendon into the calf muscles
@@ -106,8 +107,8 @@ def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float) 
     inside = np.flatnonzero((heights > b_mm) & (heights < c_mm))
     if not inside.size:
         return 0.5 * (b_mm + c_mm)
-    g_b, g_c = np.interp(b_mm, heights, g), np.interp(c_mm, heights, g)
-    level = 0.5 * (g_b + g_c)
+    if level is None:
+        level = 0.5 * (np.interp(b_mm, heights, g) + np.interp(c_mm, heights, g))
     above = inside[g[inside] >= level]
     if not above.size or above[0] == 0:
         return 0.5 * (b_mm + c_mm)

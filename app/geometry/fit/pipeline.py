@@ -222,10 +222,15 @@ def fit_calf(
     girth = sections.circumferences()
     # B1 halfway up the rise of the tape's girths, not of the chords' perimeters, which a
     # scanner's noise zig-zags longer - by 5 mm at the ankle and 3 at the calf on a mesh
-    # with 0.3-1 mm of noise, moving the level and B1 with it (b1_height)
+    # with 0.3-1 mm of noise, moving the level and B1 with it (b1_height) - and halfway
+    # between the tape's cB and cC, whose sections read a hole along the leg, where B's
+    # section, the calf's lowest, has none below it to read it from (a hole at the ankle
+    # put B1 3.5 mm low: chart_accuracy 8 11, leg 3 holes)
+    tape_b_c = tape_band_girths(local, band_faces, np.array([b_mm, c_mm]), graph)
     b1_mm = None if graph is None else b1_on_graph(local, graph, b_mm, c_mm)  # a sparse cloud's on its graph
     if b1_mm is None:
-        b1_mm = b1_height(heights, sections.tape_perimeters(), b_mm, c_mm)
+        level = float(tape_b_c.mean()) if np.isfinite(tape_b_c).all() else None
+        b1_mm = b1_height(heights, sections.tape_perimeters(), b_mm, c_mm, level)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if faces is not None:
@@ -238,7 +243,8 @@ def fit_calf(
         raise (open_arcs_failure(layer_sections, "the calf's feature layers", cut_at_knee)
                or FitFailure(FailureReason.NOT_A_LEG, "a feature layer of the calf is not a closed contour"))
     layer_girth = layer_sections.circumferences()
-    tape = tape_band_girths(local, band_faces, layers_z[[0, 2, 4, 6]], graph)
+    tape_b1_d = tape_band_girths(local, band_faces, layers_z[[2, 6]], graph)
+    tape = np.array([tape_b_c[0], tape_b1_d[0], tape_b_c[1], tape_b1_d[1]])
     if not np.isfinite(tape).all():  # a sparse slab the 360-ray fit could not close: the layer's own hull
         fallback = layer_sections.tape_perimeters()[[0, 2, 4, 6]]
         tape = np.where(np.isfinite(tape), tape, fallback)
