@@ -117,6 +117,29 @@ def b1_height(heights: np.ndarray, girth: np.ndarray, b_mm: float, c_mm: float, 
     return float(h0 + (level - g0) / (g1 - g0) * (h1 - h0)) if g1 > g0 else float(h1)
 
 
+#: B1 read again on the tape's own girths: planes every B1_TAPE_STEP_MM within
+#: B1_TAPE_REACH_MM of the first reading, mm
+B1_TAPE_REACH_MM = 8.0
+B1_TAPE_STEP_MM = 2.0
+
+
+def level_crossing(heights: np.ndarray, girth: np.ndarray, level: float, near_mm: float) -> float:
+    """Where the least-squares line through the girths (k,) at ``heights`` (k,) mm reaches
+    ``level`` (mm): B1 on the tape's girths over a few planes round ``near_mm``, each known
+    to ~0.5 mm, the line averaging them.  ``near_mm`` where fewer than 3 are measured, the
+    line does not rise or reaches the level outside the measured planes (no
+    extrapolation)."""
+    measured = np.isfinite(girth)
+    if measured.sum() < 3:
+        return near_mm
+    slope, intercept = np.polyfit(heights[measured] - near_mm, girth[measured], 1)
+    if slope <= 0:
+        return near_mm
+    crossing = near_mm + float((level - intercept) / slope)
+    inside = heights[measured].min() <= crossing <= heights[measured].max()
+    return crossing if inside else near_mm
+
+
 def height_tolerances(heights: np.ndarray, girth: np.ndarray, marks_mm: dict) -> dict:
     """How sharply the profile places each landmark: its height tolerance, mm.
 

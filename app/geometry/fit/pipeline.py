@@ -18,12 +18,15 @@ import time
 import numpy as np
 
 from app.geometry.anatomy.feature_layers import (
+    B1_TAPE_REACH_MM,
+    B1_TAPE_STEP_MM,
     LANDMARK_NAMES,
     Landmark,
     Landmarks,
     b1_height,
     height_tolerances,
     layer_heights,
+    level_crossing,
 )
 from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
 from app.geometry.anatomy.foot import foot_measures
@@ -47,7 +50,7 @@ from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, o
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 from app.geometry.scan.skin_layers import skin_layers
-from app.geometry.sections import TAPE_BAND_OFFSETS_MM, slice_polar, tape_band_girths
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, slice_polar, tape_band_girths, tape_girths
 from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import error_statistics
 from app.geometry.spline.lsq import LsqGrid, fit_lsq_surface
@@ -231,6 +234,11 @@ def fit_calf(
     if b1_mm is None:
         level = float(tape_b_c.mean()) if np.isfinite(tape_b_c).all() else None
         b1_mm = b1_height(heights, sections.tape_perimeters(), b_mm, c_mm, level)
+        if level is not None:  # and read again on the tape's girths, as cB and cC are: the
+            # sections' 72-ray hulls pick up a scanner's noise (1-2 mm more girth on a mesh
+            # with 0.3-1 mm of noise) and crossed the level 1.5 mm low, cB1 1.2-2.5 mm short
+            near = b1_mm + np.arange(-B1_TAPE_REACH_MM, B1_TAPE_REACH_MM + 1e-9, B1_TAPE_STEP_MM)
+            b1_mm = level_crossing(near, tape_girths(local, band_faces, near), level, b1_mm)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if faces is not None:

@@ -2,8 +2,9 @@
 a synthetic girth profile (mm) places each one."""
 
 import numpy as np
+import pytest
 
-from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM, height_tolerances
+from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM, height_tolerances, level_crossing
 
 
 def test_tolerances_are_long_on_a_flat_crown_and_short_on_a_steep_rise():
@@ -17,3 +18,17 @@ def test_tolerances_are_long_on_a_flat_crown_and_short_on_a_steep_rise():
     assert tolerances["C"] > 25.0
     assert tolerances["B1"] <= HIGH_CONFIDENCE_MM
 
+
+
+def test_b1_is_read_again_where_the_tapes_girths_cross_the_level():
+    """level_crossing: the least-squares line through a few tape girths round a first
+    reading (a rise of 1.3 mm per mm with 0.4 mm of reading noise) reaches the level
+    within 0.3 mm of where the rise does; a level outside the planes, a flat or falling
+    run, or too few girths leave the first reading as it is."""
+    rng = np.random.default_rng(2)
+    near = 150.0 + np.arange(-8.0, 8.1, 2.0)
+    girth = 300.0 + 1.3 * (near - 153.0) + rng.normal(0.0, 0.4, len(near))
+    assert level_crossing(near, girth, 300.0, 150.0) == pytest.approx(153.0, abs=0.3)
+    assert level_crossing(near, girth, 330.0, 150.0) == 150.0  # 23 mm away: outside the planes
+    assert level_crossing(near, np.full(len(near), 300.0), 300.0, 150.0) == 150.0
+    assert level_crossing(near, np.where(near < 148, girth, np.nan), 300.0, 150.0) == 150.0
