@@ -238,7 +238,7 @@ def fit_calf(
             # sections' 72-ray hulls pick up a scanner's noise (1-2 mm more girth on a mesh
             # with 0.3-1 mm of noise) and crossed the level 1.5 mm low, cB1 1.2-2.5 mm short
             near = b1_mm + np.arange(-B1_TAPE_REACH_MM, B1_TAPE_REACH_MM + 1e-9, B1_TAPE_STEP_MM)
-            b1_mm = level_crossing(near, tape_girths(local, band_faces, near), level, b1_mm)
+            b1_mm = level_crossing(near, tape_girths(local, band_faces, near, graph), level, b1_mm)
     layers_z = layer_heights(b_mm, b1_mm, c_mm, d_mm)
     layer_sections = slice_polar(local, faces, layers_z, options.n_angles)
     if faces is not None:

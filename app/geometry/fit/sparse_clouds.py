@@ -55,6 +55,9 @@ def sparse_cloud_graph(local: np.ndarray, faces: np.ndarray | None, d_mm: float)
 #: either side of the slabs' D, mm
 WAIST_REACH_MM = 2 * WAIST_FIT_MM
 WAIST_STEP_MM = 2.0
+#: B1 is read on the graph only where the graph closes a section this near it below and
+#: above, mm (b1_on_graph)
+B1_GRAPH_REACH_MM = 6.0
 
 
 def knee_waist_on_graph(local: np.ndarray, graph: np.ndarray, d_mm: float, at_scan_edge: bool) -> tuple[float, bool]:
@@ -96,12 +99,21 @@ def b1_on_graph(local: np.ndarray, graph: np.ndarray, b_mm: float, c_mm: float) 
     tape girths from B to C (:func:`app.geometry.anatomy.feature_layers.b1_height`), read
     every WAIST_STEP_MM on the graph rather than on the fit's slabs, whose girths scatter
     by 3-8 mm on a body mesh's vertices (:func:`knee_waist_on_graph`); None where the
-    graph closes fewer than 10 of those sections.  B1 lies on the calf's steepest rise,
-    1-1.5 mm of girth per mm of height: where its height goes, cB1 follows.  local (n, 3)
-    calf-frame mm, B at z = 0; graph (e, 2)."""
+    graph closes fewer than 10 of those sections or none within B1_GRAPH_REACH_MM below
+    or above its B1 (a body mesh's coarse stretch of the calf left the graph open over
+    120 mm, and B1 read on the straight line bridging it lay 4.4 mm low, cB1 7.6 mm
+    short: benchmarks/robustness.py 220 7, body_vertices-04).  B1 lies on the calf's
+    steepest rise, 1-1.5 mm of girth per mm of height: where its height goes, cB1
+    follows.  local (n, 3) calf-frame mm, B at z = 0; graph (e, 2)."""
     rise = np.arange(b_mm, c_mm + WAIST_STEP_MM, WAIST_STEP_MM)
     girth = tape_girths(local, None, rise, graph)
-    return b1_height(rise, girth, b_mm, c_mm) if np.isfinite(girth).sum() >= 10 else None
+    measured = rise[np.isfinite(girth)]
+    if len(measured) < 10:
+        return None
+    b1_mm = b1_height(rise, girth, b_mm, c_mm)
+    below, above = measured[measured <= b1_mm], measured[measured >= b1_mm]
+    read = len(below) and len(above) and b1_mm - below[-1] <= B1_GRAPH_REACH_MM and above[0] - b1_mm <= B1_GRAPH_REACH_MM
+    return b1_mm if read else None
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:
