@@ -125,7 +125,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     middle = middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window, edges)
     knee, e_mm, warnings = middle.point, middle.height_mm, middle.warnings
     # G: the gluteal fold, the corner of the posterior profile below the buttock
-    rear = posterior_profile(points, faces, heights)
+    rear = posterior_profile(points, faces, heights, edges)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
     if fold.height_mm is None:
         return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
