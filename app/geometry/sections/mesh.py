@@ -213,6 +213,8 @@ def _segment_centroids(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray
 
 #: the rays a mesh's section is tested for a hole on (5 degrees: the paper's)
 HOLE_TEST_RAYS = 72
+#: the sections a hole's rays are read between, this far apart, mm (sections_across_holes)
+ACROSS_HOLES_STEP_MM = 3.0
 
 
 def holed_sections(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
@@ -227,12 +229,14 @@ def holed_sections(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
 
 def sections_across_holes(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int) -> PolarSections:
     """Sections of a mesh at ``heights`` (h,) mm whose contours have holes, on ``n_angles``
-    rays, each read with the mesh's sections every 2 mm within AXIAL_FILL_SPAN_MM / 2
-    above and below it, so that its rays through the hole are read along the leg
-    (:func:`_fill_along_axis`) as far as the hole allows.  vertices (n, 3) mm, faces (f, 3)."""
+    rays, read with the mesh's sections every ACROSS_HOLES_STEP_MM (one grid for all of
+    them) within AXIAL_FILL_SPAN_MM / 2 above and below them, so that their rays through
+    the hole are read along the leg (:func:`_fill_along_axis`) as far as the hole allows.
+    vertices (n, 3) mm, faces (f, 3)."""
     heights = np.asarray(heights, dtype=np.float64)
-    offsets = np.arange(-AXIAL_FILL_SPAN_MM / 2, AXIAL_FILL_SPAN_MM / 2 + 1.0, 2.0)
-    stack = np.unique(np.concatenate([heights, (heights[:, None] + offsets[None, :]).ravel()]))
+    grid = np.arange(heights.min() - AXIAL_FILL_SPAN_MM / 2, heights.max() + AXIAL_FILL_SPAN_MM / 2 + 1e-9,
+                     ACROSS_HOLES_STEP_MM)
+    stack = np.unique(np.concatenate([heights, grid]))
     sliced = slice_mesh_polar(vertices, faces, stack, n_angles)
     rows = np.searchsorted(stack, heights)
     return PolarSections(heights, sliced.centroids_mm[rows], sliced.radii_mm[rows], sliced.angles_rad,
