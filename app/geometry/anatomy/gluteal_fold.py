@@ -199,6 +199,14 @@ def _profile_slope(heights: np.ndarray, rear: np.ndarray) -> np.ndarray:
     return _central_slopes(np.pad(gaps_filled(heights, rear), lag, mode="edge"))
 
 
+def _plane_profile(heights: np.ndarray, plane: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """The posterior profile (k,) of points lying on the planes ``heights`` (k,): ``plane``
+    (m,) each point's plane, ``xy`` (m, 2) mm; the rearmost REAR_PERCENTILE of each
+    section's angle, averaged over +-PROFILE_SMOOTH_MM."""
+    x, y = xy[:, 0], xy[:, 1]
+    return _smoothed(heights, _rearmost(plane, y, _sector_weights(plane, x, y, len(heights)), len(heights)))
+
+
 def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
                       edges: np.ndarray | None = None) -> np.ndarray:
     """The back of the leg at each height (k,), evenly spaced by STEP_MM (a sparse cloud's
@@ -222,18 +230,14 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
     (CLOUD_PROFILE_HALF_MM's docstring gives what each step changed)."""
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(points, faces, heights)
-        group = np.repeat(plane, 2)
-        x, y = segments[:, :, 0].ravel(), segments[:, :, 1].ravel()
-        return _smoothed(heights, _rearmost(group, y, _sector_weights(group, x, y, len(heights)), len(heights)))
+        return _plane_profile(heights, np.repeat(plane, 2), segments.reshape(-1, 2))
     if edges is not None:
         # a sparse cloud: where its neighbour graph's edges cross each plane, as a mesh's
         # triangles do (app.geometry.fit.sparse_clouds): a body mesh's 6.5k vertices in
         # bands of points put G 146 mm down the thigh at a noise spike, unwarned, on one
         # held-out leg (benchmarks/chart_accuracy.py 8 5, leg 7) and no G on two others;
         # on the graph 14 of 16 such scans (seeds 11 and 5) read G, lG within 5.2 mm
-        group, crossings = round_edge_crossings(points, edges, heights)
-        x, y = crossings[:, 0], crossings[:, 1]
-        return _smoothed(heights, _rearmost(group, y, _sector_weights(group, x, y, len(heights)), len(heights)))
+        return _plane_profile(heights, *round_edge_crossings(points, edges, heights))
     reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
     # only the points within reach of a height (the foot's and shank's are not the thigh's)
     points = points[(points[:, 2] >= heights[0] - (reach + 0.5) * STEP_MM)
