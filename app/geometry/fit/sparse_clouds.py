@@ -112,8 +112,9 @@ def b1_on_graph(local: np.ndarray, graph: np.ndarray, b_mm: float, c_mm: float) 
         return None
     b1_mm = b1_height(rise, girth, b_mm, c_mm)
     below, above = measured[measured <= b1_mm], measured[measured >= b1_mm]
-    read = len(below) and len(above) and b1_mm - below[-1] <= B1_GRAPH_REACH_MM and above[0] - b1_mm <= B1_GRAPH_REACH_MM
-    return b1_mm if read else None
+    if not (len(below) and len(above)):
+        return None
+    return b1_mm if max(b1_mm - below[-1], above[0] - b1_mm) <= B1_GRAPH_REACH_MM else None
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:

@@ -67,9 +67,8 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
         # a hole's rays read along the leg (sections_across_holes): round the section the
         # fit's curve cuts across it as a chord does, short of the skin by up to 3 mm of
         # girth where a hole sits on the ankle's flat (chart_accuracy 8 11, leg 3 holes)
-        across = sections_across_holes(points, faces, heights[holed], 360)
         radii, centroids = sections.radii_mm.copy(), sections.centroids_mm.copy()
-        radii[holed], centroids[holed] = across.radii_mm, across.centroids_mm
+        centroids[holed], radii[holed] = sections_across_holes(points, faces, heights[holed], 360)
         return dataclasses.replace(sections, radii_mm=radii, centroids_mm=centroids)
     if edges is not None:
         if np.any(np.diff(heights) < 0):

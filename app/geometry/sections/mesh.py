@@ -227,22 +227,20 @@ def holed_sections(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
     return (hits > 0) & (hits < HOLE_TEST_RAYS)
 
 
-def sections_across_holes(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, n_angles: int) -> PolarSections:
-    """Sections of a mesh at ``heights`` (h,) mm whose contours have holes, on ``n_angles``
-    rays, read with the mesh's sections every ACROSS_HOLES_STEP_MM (one grid for all of
-    them) within AXIAL_FILL_SPAN_MM / 2 above and below them, so that their rays through
-    the hole are read along the leg (:func:`_fill_along_axis`) as far as the hole allows.
-    vertices (n, 3) mm, faces (f, 3)."""
+def sections_across_holes(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray,
+                          n_angles: int) -> tuple[np.ndarray, np.ndarray]:
+    """The centroids (h, 2) and radii (h, n_angles) mm of a mesh's sections at ``heights``
+    (h,) mm whose contours have holes, read with the mesh's sections every
+    ACROSS_HOLES_STEP_MM (one grid for all of them) within AXIAL_FILL_SPAN_MM / 2 above
+    and below them, so that their rays through the hole are read along the leg
+    (:func:`_fill_along_axis`) as far as the hole allows.  vertices (n, 3) mm, faces (f, 3)."""
     heights = np.asarray(heights, dtype=np.float64)
     grid = np.arange(heights.min() - AXIAL_FILL_SPAN_MM / 2, heights.max() + AXIAL_FILL_SPAN_MM / 2 + 1e-9,
                      ACROSS_HOLES_STEP_MM)
     stack = np.unique(np.concatenate([heights, grid]))
     sliced = slice_mesh_polar(vertices, faces, stack, n_angles)
     rows = np.searchsorted(stack, heights)
-    return PolarSections(heights, sliced.centroids_mm[rows], sliced.radii_mm[rows], sliced.angles_rad,
-                         sliced.coverage[rows],
-                         None if sliced.largest_gap_deg is None else sliced.largest_gap_deg[rows],
-                         None if sliced.gap_middle_rad is None else sliced.gap_middle_rad[rows])
+    return sliced.centroids_mm[rows], sliced.radii_mm[rows]
 
 
 def slice_mesh_polar(
