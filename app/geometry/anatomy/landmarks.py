@@ -342,6 +342,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
             raise ends_inside_calf(narrowest_h - bottom, float(g[ok].min()), float(g[ok].max()), at_top=False)
         raise no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
     failures: list[tuple[float, float, FitFailure]] = []
+    failed_at: list[int] = []  # each failure's candidate (its index in heights)
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
@@ -356,6 +357,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 # the ankle); otherwise the largest
                 rank = -float(heights[ic]) if outcome.reason is FailureReason.NO_ANKLE else float(g[ic])
                 failures.append((failure_stage(outcome), rank, outcome))
+                failed_at.append(int(ic))
             else:
                 valid.append((int(ic), outcome))
         valid = [(i, o) for i, o in valid if not _on_a_larger_calfs_flank(profile, o)]
@@ -392,7 +394,13 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         finite = finite[finite > feet.max()]
     narrowest = finite[np.argmin(g[finite])]
     up = finite[finite > narrowest]
-    got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) for _, _, failure in failures)
+    # (a candidate at or below the foot's highest elongated section is a bump of the heel
+    # or instep, no calf: its missing ankle or knee tells nothing of the leg above; it held
+    # back robustness cut_below_knee-04's "the scan ends inside the calf", which was refused
+    # as "a foot, not a calf")
+    above_foot = heights[feet.max()] if feet.size else -np.inf
+    got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) and heights[at] > above_foot
+                    for (_, _, failure), at in zip(failures, failed_at))
     # (only when the girth rises without a bulge from the narrowest point to the top: a
     # scan holding a calf, a knee and a thigh above its narrowest point does not stop
     # inside the calf)

@@ -93,3 +93,20 @@ def test_a_calf_whose_crown_rises_over_three_bumps_is_read_at_the_highest():
     found = find_feature_heights(z, girth)
     assert abs(found.c_mm - 360.0) <= 6.0
     assert abs(found.b_mm - 100.0) <= 10.0 and abs(found.d_mm - 470.0) <= 10.0
+
+
+def test_a_bump_of_the_heel_does_not_hide_a_scan_ending_inside_the_calf():
+    """A leg cut 45 mm below its knee waist, foot down (robustness cut_below_knee-04): the
+    toes and instep are elongated (1.45-2.0, a foot's), a bump of the heel between them
+    (326 mm) is not, and above the ankle (220 mm) the girth rises to the top edge.  The
+    heel's bump finds no ankle below it, but it lies under the foot's highest elongated
+    section, so it is no calf and says nothing of the leg above: the scan ends inside the
+    calf (NO_KNEE, with the rise).  Counted as a calf's missing ankle, it kept that
+    refusal back and the scan was refused as "a foot, not a calf"."""
+    z = np.arange(0.0, 380.0, 2.0)
+    girth = np.interp(z, [0, 30, 45, 58, 70, 120, 380], [150, 363, 318, 326, 318, 220, 345])
+    elongation = np.interp(z, [0, 30, 50, 66, 80, 95, 130, 380], [2.0, 1.6, 1.3, 1.3, 1.45, 1.3, 1.1, 1.05])
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z, girth, elongation=elongation)
+    assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
+    assert "ends inside the calf" in caught.value.detail
