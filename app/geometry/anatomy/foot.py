@@ -51,10 +51,10 @@ from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM
 from app.geometry.sections import (
     TAPE_BAND_OFFSETS_MM,
     edge_crossings,
-    group_median,
     largest_gap,
     mesh_section_segments,
     neighbour_edges,
+    project_on_local_quadratics,
 )
 
 #: points this close to the sole (mm) are its footprint
@@ -93,9 +93,6 @@ INSTEP_TOP_MARGIN_MM = 10.0
 #: which the tape bridges; wider is no closed section).  Bins left empty one here and one
 #: there are the sampling's (about 3 points a bin: e^-3, 5%, of them empty), not a gap
 LOOP_MAX_GAP_DEG = 108.0
-#: the loop's radii are averaged over this many degrees each side (5 degrees is 5-9 mm of
-#: a foot's loop: the heel's ~30 mm curvature radius survives it)
-LOOP_SMOOTH_DEG = 5.0
 
 
 @dataclass(frozen=True)
@@ -185,43 +182,27 @@ def _plane_girths(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarra
 
 
 def _loop_girth(section: np.ndarray) -> float:
-    """The tape girth (mm) of a section's points (n, 2): read as their median radius in
-    bins of angle round their centroid (about 3 points a bin, at most 360; a run of empty
-    bins wider than LOOP_MAX_GAP_DEG is no closed section: NaN), smoothed over
-    +-LOOP_SMOOTH_DEG (a scanner's noise would otherwise widen the hull by its outermost
-    excursions); the tape is the convex hull of the filled bins' points.  An empty run of
-    bins is bridged by the hull's straight chord, as a tape bridges it: a sole the floor's
-    removal took off (the plantar forefoot is flat and ~80 mm wide, so it leaves one wide
-    gap) is the flat the foot stood on, and interpolating the radius across the gap
-    instead would bow the loop out round the centroid (+6 mm on a generated forefoot).
-    The smoothing is a normalised convolution over the filled bins only, so a gap's edge
-    is not pulled out either.  (The calf's polar fit,
-    :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
-    harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
+    """The tape girth (mm) of a section's points (n, 2): the convex hull of the points
+    moved onto the smooth curve they sample
+    (:func:`app.geometry.sections.project_on_local_quadratics`: a scanner's noise
+    averaged across the curve, a clean section's points left on it).  NaN when no closed section: fewer than 30 points, or a
+    run of empty bins of angle round the centroid (about 3 points a bin, 36-360 bins)
+    wider than LOOP_MAX_GAP_DEG.  A narrower gap is bridged by the hull's straight chord,
+    as a tape bridges it: a sole the floor's removal took off (the plantar forefoot is
+    flat and ~80 mm wide, so it leaves one wide gap) is the flat the foot stood on.  (The
+    calf's polar fit, :func:`app.geometry.sections.tape_girths`, is built for round
+    sections: its few harmonics cut the corners of a foot's long oblique loops by up to
+    15%.)"""
     if len(section) < 30:
         return float("nan")
     rel = section - section.mean(axis=0)
-    angle, radius = np.arctan2(rel[:, 1], rel[:, 0]), np.hypot(rel[:, 0], rel[:, 1])
+    angle = np.arctan2(rel[:, 1], rel[:, 0])
     bins = int(np.clip(len(section) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
     index = np.minimum(((angle + np.pi) * (bins / (2 * np.pi))).astype(np.int64), bins - 1)
-    median, count = group_median(index, radius, bins)
-    filled = count > 0
+    filled = np.bincount(index, minlength=bins) > 0
     if largest_gap(filled[None])[0][0] > LOOP_MAX_GAP_DEG:
         return float("nan")
-    # each bin's point at its points' mean angle (a wide bin's few points are not at its centre)
-    centres = np.bincount(index, weights=angle, minlength=bins) / np.maximum(count, 1)
-    radii = np.where(filled, median, 0.0)
-    # whole bins within +-LOOP_SMOOTH_DEG: none once a bin is that wide (a sparse ring's ~3
-    # points a bin are its smoothing; a rounded-up reach of one 7-degree bin would average
-    # over 20 degrees and cut the heel's corner, -5 mm on a cloud scanned sparse on one side)
-    reach = int(np.floor(np.radians(LOOP_SMOOTH_DEG) / (2 * np.pi / bins)))
-    if reach:
-        kernel = np.ones(2 * reach + 1)
-        wrap = lambda a: np.r_[a[-reach:], a, a[:reach]]  # noqa: E731  (circular)
-        weight = np.convolve(wrap(filled.astype(float)), kernel, mode="valid")
-        radii = np.convolve(wrap(radii), kernel, mode="valid") / np.maximum(weight, 1.0)
-    loop = np.column_stack([radii * np.cos(centres), radii * np.sin(centres)])[filled]
-    return float(ConvexHull(loop).area)
+    return float(ConvexHull(project_on_local_quadratics(section)).area)
 
 
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None,

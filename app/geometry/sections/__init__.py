@@ -5,7 +5,8 @@ plane geometry; :mod:`~app.geometry.sections.mesh` slices a mesh exactly (plane-
 segments, rays from the centroid), :mod:`~app.geometry.sections.cloud` a point cloud
 (robust polar fits of slabs); :mod:`~app.geometry.sections.cloud_edges` reads a cloud's
 plane sections on its neighbour graph (the foot's oblique loops, a sparse cloud's tape
-girths).  :func:`slice_polar`
+girths); :mod:`~app.geometry.sections.loop_smoothing` moves a section's points onto the
+curve they sample (moving least squares) before its tape is read.  :func:`slice_polar`
 and :func:`tape_girths` choose between mesh and cloud.  Units: mm.
 """
 
@@ -17,11 +18,12 @@ import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
 from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges, round_edge_crossings
+from app.geometry.sections.loop_smoothing import project_on_local_quadratics
 from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
 __all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "edge_crossings", "group_median", "largest_gap", "mesh_section_segments",
-           "neighbour_edges", "polygon_centroid", "polygon_perimeter", "ray_angles", "slice_mesh_polar",
+           "neighbour_edges", "polygon_centroid", "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar",
            "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is
