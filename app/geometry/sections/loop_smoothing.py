@@ -12,15 +12,29 @@ hull, but a cloud of the same skin read them 0.5-1.0 mm longer than its mesh and
 scanner's vertices 0.6-0.7 mm shorter: one leg's re-scans read cY 2.01 mm apart (p95,
 benchmarks/chart_accuracy.py 8 5; 1.47 read as below, cA 1.83 -> 1.41).
 
-:func:`project_on_local_quadratics` is Lee's curve reconstruction (I.-K. Lee, "Curve
-reconstruction from unorganized points", CAGD 17 (2000) 161-177), the moving least
-squares of Levin (2003) for curves: each point's neighbours, weighted by a Gaussian of
-their distance, give a local frame (their weighted principal direction is the tangent)
-and a quadratic y = a + b x + c x^2 fitted in it; the point moves to the quadratic at its
-own x.  A quadratic is exact for a curve to second order, so a clean section's points
-stay on it (the foot's smallest radii of curvature, 10-30 mm, are 2-6 times the reach)
-and its hull keeps its length; the noise across the curve is averaged over the
-neighbourhood.  Units: mm.  Arrays: (n, 2) in the section's plane.
+Each point is moved by Lee's curve reconstruction (I.-K. Lee, "Curve reconstruction from
+unorganized points", CAGD 17 (2000) 161-177), the moving least squares of Levin (2003) for
+curves: its neighbours, weighted by a Gaussian of their distance, give a local frame
+(their weighted principal direction is the tangent) and a quadratic y = a + b x + c x^2
+fitted in it; the point moves to the quadratic at its own x.  A quadratic is exact for a
+curve to second order, so a clean section's points stay on it and its hull keeps its
+length; the noise across the curve is averaged over the neighbourhood.
+
+How wide a neighbourhood is the trade: wide, it averages more noise (a mesh's noise is its
+vertices', and its section holds two points of each crossed edge, so near points share
+it); too wide, it spans a tight bend and cuts it. The reach is chosen per point by
+Lepski's rule (O. V. Lepski, "Asymptotically minimax adaptive estimation", Theory Probab.
+Appl. 36 (1991); for local polynomials, Lepski, Mammen and Spokoiny, Ann. Statist. 25
+(1997)): of the reaches that span the 4th, 8th, 12th and 16th nearest points
+(:data:`LOOP_REACH_MM` to :data:`MAX_REACH_MM`), the widest whose fitted point lies within
+:data:`LEPSKI_BAND` standard errors of every narrower fit's - a wider fit that moves the
+point further than the noise can is bending round a corner. On an ellipse the shape of a
+heel-instep loop (tests/geometry/sections/test_loop_smoothing.py), points 9 mm apart read
+2.1 mm short on average (their chords' hull 2.2; the 16th neighbour's reach alone 36), 0.6
+mm of noise 2 mm apart 0.4 mm long (the 4th's alone 0.45, the raw points' hull more than
+3). In the pipeline (cA, cY over 8 legs x 15 scans of seeds 11 and 5, pairwise p95): a
+fixed 5 mm reach read a noisy mesh's cY 1.3 mm long and seed 11's pairwise cY 2.16 mm; the
+rule 1.59 (seed 5: 1.47 and 1.31). Units: mm. Arrays: (n, 2) in the section's plane.
 """
 
 from __future__ import annotations
@@ -28,28 +42,31 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-#: the Gaussian's reach (weight e^-1 at this distance, 2% at twice it), mm: larger than a
-#: scanner's noise correlation, small against the foot loop's radii of curvature
+#: the narrowest reach (weight e^-1 at this distance, 2% at twice it), mm: small against
+#: the foot loop's radii of curvature (10-30 mm)
 LOOP_REACH_MM = 5.0
 #: at most this many neighbours a point: a dense cloud's crossings (~4 a mm of loop) hold
-#: 80 within +-10 mm, twice the reach
+#: 80 within +-10 mm, twice the narrowest reach
 LOOP_NEIGHBOURS = 80
-#: a sparse section's reach grows to the distance of each point's 4th-nearest other point,
-#: so every quadratic (3 coefficients) has at least 4 neighbours of weight e^-1 or more.
-#: Wider (1.5 times the 7th's) the quadratic spans a tight bend and cuts it: an ellipse's
-#: 14 mm-radius ends sampled every 6 mm read 3.6 mm short, every 9 mm 21 mm; at the 4th
-#: the same samples read 0.2 and 1.4 mm short, closer than their chords' hull (0.9, 2.0)
-SPARSE_NEIGHBOUR = 4
+#: the widest reach, mm: its window (+-2 reaches) stays inside the foot loops' bends
+#: (heel and ankle 25-35 mm radius); the rule alone let a sparse ellipse's 14 mm ends be
+#: spanned (points 9 mm apart: 21 mm short on one draw of ten)
+MAX_REACH_MM = 10.0
+#: the reaches tried: out to each point's 4th, 8th, 12th, 16th nearest other point (4: a
+#: quadratic's 3 coefficients and one to spare)
+REACH_NEIGHBOURS = (4, 8, 12, 16)
+#: a wider fit is kept while it lies within this many standard errors of every narrower
+#: fit (a two-sided 95% band)
+LEPSKI_BAND = 2.0
 
 
-def project_on_local_quadratics(points: np.ndarray, reach_mm: float = LOOP_REACH_MM) -> np.ndarray:
-    """The section's distinct points (m, 2) mm, each moved onto the quadratic fitted to its
-    neighbours (module docstring).  points (n, 2) mm, n >= 3; a point repeated (the two
-    segment ends a mesh's section holds at each edge crossing) counts once."""
-    distinct = np.unique(points, axis=0)
-    k = min(LOOP_NEIGHBOURS, len(distinct))
-    distance, neighbour = cKDTree(distinct).query(distinct, k=k)  # (m, k)
-    reach = np.maximum(reach_mm, distance[:, min(SPARSE_NEIGHBOUR, k - 1)])
+def _local_quadratic_fit(distinct: np.ndarray, distance: np.ndarray, neighbour: np.ndarray,
+                         reach: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Each point (m, 2) moved onto the quadratic fitted to its ``neighbour`` (m, k)
+    points at ``distance`` (m, k) mm with Gaussian weights of ``reach`` (m,) mm: the moved
+    points (m, 2), the sum of squares of each fitted value's weights on the points (m,)
+    (its variance over the noise's), its weight on its own point (m,) and its residual
+    across the curve (m,) mm."""
     weight = np.exp(-((distance / reach[:, None]) ** 2))  # (m, k)
     near = distinct[neighbour]  # (m, k, 2)
     centre = np.einsum("mk,mkd->md", weight, near) / weight.sum(axis=1)[:, None]
@@ -60,8 +77,34 @@ def project_on_local_quadratics(points: np.ndarray, reach_mm: float = LOOP_REACH
     x = np.einsum("mkd,md->mk", offset, tangent)
     y = np.einsum("mkd,md->mk", offset, normal)
     basis = np.stack([np.ones_like(x), x, x * x], axis=-1)  # (m, k, 3)
-    normal_matrix = np.einsum("mk,mki,mkj->mij", weight, basis, basis) + 1e-9 * np.eye(3)
-    right = np.einsum("mk,mki,mk->mi", weight, basis, y)
-    a, b, c = np.linalg.solve(normal_matrix, right[..., None])[..., 0].T
-    x0 = np.einsum("md,md->m", distinct - centre, tangent)
-    return centre + x0[:, None] * tangent + (a + b * x0 + c * x0 * x0)[:, None] * normal
+    inverse = np.linalg.inv(np.einsum("mk,mki,mkj->mij", weight, basis, basis) + 1e-9 * np.eye(3))
+    own = basis[:, 0, :]  # the point is its own nearest (distance 0)
+    # the fitted value at the point is a weighted sum of the neighbours' y: its weights
+    hat = np.einsum("mi,mij,mkj,mk->mk", own, inverse, basis, weight)
+    fitted = np.einsum("mk,mk->m", hat, y)
+    moved = centre + x[:, :1] * tangent + fitted[:, None] * normal
+    return moved, np.einsum("mk,mk->m", hat, hat), hat[:, 0], y[:, 0] - fitted
+
+
+def project_on_local_quadratics(points: np.ndarray) -> np.ndarray:
+    """The section's distinct points (m, 2) mm, each moved onto the quadratic fitted to its
+    neighbours over the reach Lepski's rule chooses (module docstring).  points (n, 2) mm,
+    n >= 5; a point repeated (the two segment ends a mesh's section holds at each edge
+    crossing) counts once."""
+    distinct = np.unique(points, axis=0)
+    k = min(LOOP_NEIGHBOURS, len(distinct))
+    distance, neighbour = cKDTree(distinct).query(distinct, k=k)  # (m, k)
+    fits = [_local_quadratic_fit(distinct, distance, neighbour,
+                                 np.clip(distance[:, min(count, k - 1)], LOOP_REACH_MM, MAX_REACH_MM))
+            for count in REACH_NEIGHBOURS]
+    # the noise across the curve, from the narrowest fit's residuals (RSS / (n - trace))
+    _, _, own_weight, residual = fits[0]
+    sigma = float(np.sqrt(np.mean(residual**2) / max(1.0 - float(np.mean(own_weight)), 1e-3)))
+    chosen = fits[0][0].copy()
+    consistent = np.ones(len(distinct), dtype=bool)
+    for wider in range(1, len(fits)):
+        for narrower in range(wider):
+            consistent &= (np.linalg.norm(fits[wider][0] - fits[narrower][0], axis=1)
+                           <= LEPSKI_BAND * sigma * np.sqrt(fits[narrower][1]))
+        chosen[consistent] = fits[wider][0][consistent]
+    return chosen

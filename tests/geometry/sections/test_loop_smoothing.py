@@ -48,17 +48,26 @@ def test_a_scanners_noise_no_longer_widens_the_tape():
         assert abs(ConvexHull(project_on_local_quadratics(points)).area - _perimeter()) < 0.6, seed
 
 
-def test_a_sparse_loop_is_fitted_over_enough_neighbours():
-    """Points 6 mm apart at random (a body scanner's vertices, gaps up to ~20 mm): each
-    quadratic's reach grows to its 4th neighbour, so the fit stays finite and follows the
-    ellipse's tight ends (14 mm radius): over ten draws the perimeter within 0.4 mm on
-    average and 1.1 mm on each, closer than the hull of the samples' chords (0.7-1.5 mm
-    short); a reach over the 7th neighbours read 3.6 mm short on average."""
-    errors = []
+def test_a_sparse_loop_keeps_its_bends():
+    """Points 9 mm apart at random (a body scanner's vertices: 34 round the loop, gaps up
+    to ~25 mm): the reach grows to each point's 4th neighbour and no wider than Lepski's
+    rule and MAX_REACH_MM allow, so the ellipse's tight ends (14 mm radius) are not spanned:
+    over ten draws the loop reads on average no shorter than its chords' hull (2.2 mm
+    short) and never 4 mm short, where the 16th neighbour's reach alone reads 36 mm short."""
+    errors, chords = [], []
     for seed in range(10):
-        points = _ellipse(6.0, seed=seed)
+        points = _ellipse(9.0, seed=seed)
         moved = project_on_local_quadratics(points)
         assert np.isfinite(moved).all()
         errors.append(ConvexHull(moved).area - _perimeter())
-        assert abs(errors[-1]) < 1.1 and abs(errors[-1]) < abs(ConvexHull(points).area - _perimeter()), seed
-    assert abs(np.mean(errors)) < 0.4
+        chords.append(ConvexHull(points).area - _perimeter())
+    assert min(errors) > -4.0 and np.mean(errors) >= np.mean(chords) - 0.2, (errors, chords)
+
+
+def test_noise_on_a_sparse_loop_is_averaged_over_the_wider_reach():
+    """0.6 mm of noise on points 2 mm apart (a noisy mesh's section): the rule widens the
+    reach where the wider fit agrees with the narrower within the noise, so over ten draws
+    the loop reads within 0.5 mm of the perimeter on average and 1.0 on each."""
+    errors = [ConvexHull(project_on_local_quadratics(_ellipse(2.0, noise_mm=0.6, seed=seed))).area - _perimeter()
+              for seed in range(10)]
+    assert abs(np.mean(errors)) < 0.5 and max(np.abs(errors)) < 1.0, errors
