@@ -52,6 +52,10 @@ LOOP_NEIGHBOURS = 80
 #: (heel and ankle 25-35 mm radius); the rule alone let a sparse ellipse's 14 mm ends be
 #: spanned (points 9 mm apart: 21 mm short on one draw of ten)
 MAX_REACH_MM = 10.0
+#: a dense section's points moved onto the curve are thinned to about this many (a point
+#: every 1 mm of a foot's 200-350 mm loops: the hull's chords between them lie within
+#: 0.01 mm of a 10 mm bend); every point still counts in the fits
+LOOP_POINTS_MOVED = 360
 #: the reaches tried: out to each point's 4th, 8th, 12th, 16th nearest other point (4: a
 #: quadratic's 3 coefficients and one to spare)
 REACH_NEIGHBOURS = (4, 8, 12, 16)
@@ -68,32 +72,43 @@ def _local_quadratic_fit(distinct: np.ndarray, distance: np.ndarray, neighbour: 
     (its variance over the noise's), its weight on its own point (m,) and its residual
     across the curve (m,) mm."""
     weight = np.exp(-((distance / reach[:, None]) ** 2))  # (m, k)
-    near = distinct[neighbour]  # (m, k, 2)
-    centre = np.einsum("mk,mkd->md", weight, near) / weight.sum(axis=1)[:, None]
-    offset = near - centre[:, None, :]
-    scatter = np.einsum("mk,mki,mkj->mij", weight, offset, offset)
-    _, frame = np.linalg.eigh(scatter)  # columns by rising eigenvalue: normal, tangent
-    normal, tangent = frame[..., 0], frame[..., 1]
-    x = np.einsum("mkd,md->mk", offset, tangent)
-    y = np.einsum("mkd,md->mk", offset, normal)
-    basis = np.stack([np.ones_like(x), x, x * x], axis=-1)  # (m, k, 3)
-    inverse = np.linalg.inv(np.einsum("mk,mki,mkj->mij", weight, basis, basis) + 1e-9 * np.eye(3))
-    own = basis[:, 0, :]  # the point is its own nearest (distance 0)
+    total = weight.sum(axis=1)
+    near_x, near_y = distinct[neighbour, 0], distinct[neighbour, 1]  # (m, k) each
+    centre = np.column_stack([(weight * near_x).sum(axis=1), (weight * near_y).sum(axis=1)]) / total[:, None]
+    dx, dy = near_x - centre[:, :1], near_y - centre[:, 1:]
+    # the weighted scatter's principal direction in closed form (a 2 x 2 eigenproblem)
+    sxx, syy, sxy = (weight * dx * dx).sum(axis=1), (weight * dy * dy).sum(axis=1), (weight * dx * dy).sum(axis=1)
+    angle = 0.5 * np.arctan2(2.0 * sxy, sxx - syy)
+    tangent = np.column_stack([np.cos(angle), np.sin(angle)])  # (m, 2)
+    normal = np.column_stack([-tangent[:, 1], tangent[:, 0]])
+    x = dx * tangent[:, :1] + dy * tangent[:, 1:]  # (m, k) along the tangent
+    y = dx * normal[:, :1] + dy * normal[:, 1:]  # (m, k) across it
+    # the normal equations of y = a + b x + c x^2: moments of x up to the 4th
+    wx = weight * x
+    wxx = wx * x
+    moment = [total, wx.sum(axis=1), wxx.sum(axis=1), (wxx * x).sum(axis=1), (wxx * x * x).sum(axis=1)]
+    normal_matrix = np.stack([np.stack(moment[row : row + 3], axis=-1) for row in range(3)], axis=1)  # (m, 3, 3)
+    inverse = np.linalg.inv(normal_matrix + 1e-9 * np.eye(3))
+    x0 = x[:, 0]  # the point itself is its own nearest (distance 0)
+    own = np.column_stack([np.ones_like(x0), x0, x0 * x0])  # (m, 3)
+    row = np.einsum("mi,mij->mj", own, inverse)  # (m, 3)
     # the fitted value at the point is a weighted sum of the neighbours' y: its weights
-    hat = np.einsum("mi,mij,mkj,mk->mk", own, inverse, basis, weight)
-    fitted = np.einsum("mk,mk->m", hat, y)
-    moved = centre + x[:, :1] * tangent + fitted[:, None] * normal
-    return moved, np.einsum("mk,mk->m", hat, hat), hat[:, 0], y[:, 0] - fitted
+    hat = weight * (row[:, :1] + row[:, 1:2] * x + row[:, 2:] * x * x)  # (m, k)
+    fitted = (hat * y).sum(axis=1)
+    moved = centre + x0[:, None] * tangent + fitted[:, None] * normal
+    return moved, (hat * hat).sum(axis=1), hat[:, 0], y[:, 0] - fitted
 
 
 def project_on_local_quadratics(points: np.ndarray) -> np.ndarray:
-    """The section's distinct points (m, 2) mm, each moved onto the quadratic fitted to its
-    neighbours over the reach Lepski's rule chooses (module docstring).  points (n, 2) mm,
-    n >= 5; a point repeated (the two segment ends a mesh's section holds at each edge
-    crossing) counts once."""
+    """The section's distinct points (m, 2) mm - at most about LOOP_POINTS_MOVED of them,
+    evenly taken, each fitted over all its neighbours - each moved onto the quadratic
+    fitted to its neighbours over the reach Lepski's rule chooses (module docstring).
+    points (n, 2) mm, n >= 5; a point repeated (the two segment ends a mesh's section holds
+    at each edge crossing) counts once."""
     distinct = np.unique(points, axis=0)
     k = min(LOOP_NEIGHBOURS, len(distinct))
-    distance, neighbour = cKDTree(distinct).query(distinct, k=k)  # (m, k)
+    moved = distinct[:: -(-len(distinct) // LOOP_POINTS_MOVED)]
+    distance, neighbour = cKDTree(distinct).query(moved, k=k)  # (m, k); each point its own nearest
     fits = [_local_quadratic_fit(distinct, distance, neighbour,
                                  np.clip(distance[:, min(count, k - 1)], LOOP_REACH_MM, MAX_REACH_MM))
             for count in REACH_NEIGHBOURS]
@@ -101,7 +116,7 @@ def project_on_local_quadratics(points: np.ndarray) -> np.ndarray:
     _, _, own_weight, residual = fits[0]
     sigma = float(np.sqrt(np.mean(residual**2) / max(1.0 - float(np.mean(own_weight)), 1e-3)))
     chosen = fits[0][0].copy()
-    consistent = np.ones(len(distinct), dtype=bool)
+    consistent = np.ones(len(moved), dtype=bool)
     for wider in range(1, len(fits)):
         for narrower in range(wider):
             consistent &= (np.linalg.norm(fits[wider][0] - fits[narrower][0], axis=1)
