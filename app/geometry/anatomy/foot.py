@@ -208,15 +208,15 @@ def _loop_girth(section: np.ndarray) -> float:
     return float(ConvexHull(project_on_local_quadratics(section)).area)
 
 
-def _extreme_tape(sections: list[np.ndarray], planes: int, largest: bool) -> tuple[int, float]:
+def _extreme_tape(sections: list[np.ndarray], coarse: np.ndarray, planes: int, largest: bool) -> tuple[int, float]:
     """The tape band at the largest (or least) girth among the planes' ``sections`` (k
-    lists of (n, 2) points, in order): the band of ``planes`` (odd) neighbours whose median
-    :func:`_hull_girths` is largest (least), then its tape (:func:`_loop_girth`, median over
-    the band's closed sections).  The moving least squares costs ~1 ms a section, the hull
+    lists of (n, 2) points, in order), some closed: the band of ``planes`` (odd) neighbours
+    whose median ``coarse`` girth (k,) mm (:func:`_hull_girths`, NaN where not closed) is
+    largest (least), then its tape (:func:`_loop_girth`, median over the band's closed
+    sections).  The moving least squares costs ~1 ms a section, the hull
     ~0.05: read on the band alone, the foot's 40 sections cost the fit ~15 ms, not ~170; near
     the extreme the girth changes to second order, so the plane the raw hulls rank first
     reads within a fraction of a millimetre of the one the tapes would.  (index, mm)."""
-    coarse = _hull_girths(sections)
     band = np.where(np.isfinite(coarse), running_median(coarse, planes), np.nan)
     best = int(np.nanargmax(band) if largest else np.nanargmin(band))
     near = range(max(best - planes // 2, 0), min(best + planes // 2 + 1, len(sections)))
@@ -268,10 +268,11 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ends = _hull_girths(_sections(below_b, below_faces, edges, origin, basis,
                                   np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis))
-    if not any(_closed(section) for section in window):
+    coarse = _hull_girths(window)
+    if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
-    best, ball = _extreme_tape(window, BALL_BAND_PLANES, largest=True)
+    best, ball = _extreme_tape(window, coarse, BALL_BAND_PLANES, largest=True)
     cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
     if cut:
         reason = f"the {' and '.join(cut)} end in a section {max(ends):.0f} mm round, not a taper: the foot is cut"
@@ -322,10 +323,11 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
         if far[2] > INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:  # the loop reaches the part's cut: not closed
             continue
         loops[k], centres[k] = section, (heel + far) / 2
-    if not any(_closed(loop) for loop in loops):
+    coarse = _hull_girths(loops)
+    if not np.isfinite(coarse).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "
                                             "(a hole or a crop)")
     # the shortest of the loops, each read as the median of it and its neighbouring tilts:
     # the least of single loops is biased down by their noise, as the ball girth's largest up
-    best, girth = _extreme_tape(loops, INSTEP_BAND_PLANES, largest=False)
+    best, girth = _extreme_tape(loops, coarse, INSTEP_BAND_PLANES, largest=False)
     return FootPoint("cY", girth, _xyz(centres[best]))
