@@ -66,10 +66,14 @@ def knee_waist_on_graph(local: np.ndarray, graph: np.ndarray, d_mm: float, at_sc
     the rule the placement reads it by) of the graph's tape girths every WAIST_STEP_MM
     within WAIST_REACH_MM of the slabs' ``d_mm``, round the lowest of them within
     WAIST_FIT_MM of it; ``d_mm`` itself where the graph closes too few of those sections.
-    A D the slabs took at the scan's edge (``at_scan_edge``) moves only to a vertex the
-    graph reads inside the scan: WAIST_MIN_FLANK_MM under its last section, whose girth
-    is TAPE_RESOLUTION_MM more (a waist reached, as
-    :func:`app.geometry.anatomy.waists.minimum_reached_at_edge` asks of the edge).
+    D moves only to a vertex the graph reads inside the scan: WAIST_MIN_FLANK_MM under
+    its last closed section, whose girth is TAPE_RESOLUTION_MM more (a waist reached, as
+    :func:`app.geometry.anatomy.waists.minimum_reached_at_edge` asks of the edge); else
+    it stays where the slabs took it, at the scan's edge when ``at_scan_edge``.  (Within
+    a vertex spacing of a cut the graph's sections lose the edges across the cut and read
+    short: a sparse lower leg's D moved from the slabs' 357 mm to 377, 8 mm under the
+    cut, where the graph read the girth 6 mm less than at the waist - lD 23.6 mm off the
+    clean mesh's, unwarned: benchmarks/chart_accuracy.py 8 3, leg 0.)
 
     The placement reads the profile on slabs up to 20 mm thick, whose girths scatter by
     3-8 mm on a body mesh's vertices: the vertex of a flat knee waist moved with that
@@ -86,12 +90,10 @@ def knee_waist_on_graph(local: np.ndarray, graph: np.ndarray, d_mm: float, at_sc
         return d_mm, at_scan_edge
     lowest = int(near[np.argmin(smooth_profile(heights, girth)[near])])
     vertex = waist_vertex(heights, girth, lowest, float(heights[0]), float(heights[-1]))
-    if not at_scan_edge:
-        return vertex, False
     last = int(np.flatnonzero(measured)[-1])
     inside = (heights[last] - vertex >= WAIST_MIN_FLANK_MM
               and girth[last] - np.interp(vertex, heights[measured], girth[measured]) >= TAPE_RESOLUTION_MM)
-    return (vertex, False) if inside else (d_mm, True)
+    return (vertex, False) if inside else (d_mm, at_scan_edge)
 
 
 def b1_on_graph(local: np.ndarray, graph: np.ndarray, b_mm: float, c_mm: float) -> float | None:
