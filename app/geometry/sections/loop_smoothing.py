@@ -10,7 +10,7 @@ star-shaped from its centroid; the averaging cuts corners).  The band medians an
 minimum over tilts kept the clean meshes' cA and cY within -0.4..+0.8 mm of the exact
 hull, but a cloud of the same skin read them 0.5-1.0 mm longer than its mesh and a body
 scanner's vertices 0.6-0.7 mm shorter: one leg's re-scans read cY 2.01 mm apart (p95,
-benchmarks/chart_accuracy.py 8 5; 1.47 read as below, cA 1.83 -> 1.41).
+benchmarks/chart_accuracy.py 8 5; 1.27 read as below, cA 1.83 -> 1.32).
 
 Each point is moved by Lee's curve reconstruction (I.-K. Lee, "Curve reconstruction from
 unorganized points", CAGD 17 (2000) 161-177), the moving least squares of Levin (2003) for
@@ -32,9 +32,11 @@ point further than the noise can is bending round a corner. On an ellipse the sh
 heel-instep loop (tests/geometry/sections/test_loop_smoothing.py), points 9 mm apart read
 2.1 mm short on average (their chords' hull 2.2; the 16th neighbour's reach alone 36), 0.6
 mm of noise 2 mm apart 0.4 mm long (the 4th's alone 0.45, the raw points' hull more than
-3). In the pipeline (cA, cY over 8 legs x 15 scans of seeds 11 and 5, pairwise p95): a
-fixed 5 mm reach read a noisy mesh's cY 1.3 mm long and seed 11's pairwise cY 2.16 mm; the
-rule 1.59 (seed 5: 1.47 and 1.31). Units: mm. Arrays: (n, 2) in the section's plane.
+3). In the pipeline (benchmarks/chart_accuracy.py, one leg's re-scans, pairwise p95): a
+fixed 5 mm reach read a noisy mesh's cY 1.3 mm long and seed 11's cY 2.16 mm apart; the
+rule, read on the band the raw hulls rank first (app.geometry.anatomy.foot), 1.54 (seed 5:
+1.27, seed 3: 1.11; cA 1.08, 1.32, 1.21). Units: mm. Arrays: (n, 2) in the section's
+plane.
 """
 
 from __future__ import annotations
