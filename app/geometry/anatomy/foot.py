@@ -318,11 +318,10 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
             continue
         end = section[int(np.argmax(section[:, 1]))]  # the loop's far end, along the rising direction
         far = heel + end[0] * basis[0] + end[1] * basis[1]
-        if not heel_t + INSTEP_WINDOW[0] * length <= far @ axis <= heel_t + INSTEP_WINDOW[1] * length:
-            continue
-        if far[2] > INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:  # the loop reaches the part's cut: not closed
-            continue
-        loops[k], centres[k] = section, (heel + far) / 2
+        over_ankle = heel_t + INSTEP_WINDOW[0] * length <= far @ axis <= heel_t + INSTEP_WINDOW[1] * length
+        # (a loop reaching the part's cut is not closed)
+        if over_ankle and far[2] <= INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:
+            loops[k], centres[k] = section, (heel + far) / 2
     coarse = _hull_girths(loops)
     if not np.isfinite(coarse).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "

@@ -341,8 +341,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
         if widest - bottom <= INTERIOR_MARGIN_MM * 5:
             raise ends_inside_calf(narrowest_h - bottom, float(g[ok].min()), float(g[ok].max()), at_top=False)
         raise no_calf("the circumference profile has no calf maximum: the scan does not bulge like a calf")
-    failures: list[tuple[float, float, FitFailure]] = []
-    failed_at: list[int] = []  # each failure's candidate (its index in heights)
+    # (stage, rank, failure, the candidate's height mm)
+    failures: list[tuple[float, float, FitFailure, float]] = []
     for group in (peaks, shoulders):
         valid: list[tuple[int, FeatureHeights]] = []
         for ic in group:
@@ -356,8 +356,7 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 # among ankles missing, the lowest bulge (the calf is the first bulge above
                 # the ankle); otherwise the largest
                 rank = -float(heights[ic]) if outcome.reason is FailureReason.NO_ANKLE else float(g[ic])
-                failures.append((failure_stage(outcome), rank, outcome))
-                failed_at.append(int(ic))
+                failures.append((failure_stage(outcome), rank, outcome, float(heights[ic])))
             else:
                 valid.append((int(ic), outcome))
         valid = [(i, o) for i, o in valid if not _on_a_larger_calfs_flank(profile, o)]
@@ -399,8 +398,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     # back robustness cut_below_knee-04's "the scan ends inside the calf", which was refused
     # as "a foot, not a calf")
     above_foot = heights[feet.max()] if feet.size else -np.inf
-    got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) and heights[at] > above_foot
-                    for (_, _, failure), at in zip(failures, failed_at))
+    got_ankle = any(failure.reason in (FailureReason.NO_ANKLE, FailureReason.NO_KNEE) and at_mm > above_foot
+                    for _, _, failure, at_mm in failures)
     # (only when the girth rises without a bulge from the narrowest point to the top: a
     # scan holding a calf, a knee and a thigh above its narrowest point does not stop
     # inside the calf)
@@ -416,5 +415,5 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     reported = max(failures, key=lambda item: (item[0], item[1]))[2]
     # with the bulges set aside as on a flank: their girths may tell a wrong unit
-    reported.flank_bulges_mm = tuple(f.girth_mm for _, _, f in failures if isinstance(f, BulgeOnFlank))
+    reported.flank_bulges_mm = tuple(f.girth_mm for _, _, f, _ in failures if isinstance(f, BulgeOnFlank))
     raise reported
