@@ -1,0 +1,26 @@
+"""benchmarks/chart_accuracy.py: which re-scan pairs count as read without a warning."""
+
+from benchmarks.chart_accuracy import unwarned_pairs
+
+
+def _scan(cg: float, **flags) -> dict:
+    return {"outcome": "fit", "cG": cg, "lG": 700.0 + cg / 100, "uncertainty": flags.pop("uncertainty", {}), **flags}
+
+
+def test_a_reading_the_record_warns_about_is_left_out_of_the_unwarned_pairs():
+    leg = {"scans": {"mesh_clean": _scan(500.0), "noise": _scan(504.0, g_uncertain=True),
+                     "cloud": _scan(501.0), "holes": _scan(503.0, uncertainty={"cG": 4.0}),
+                     "two_legs": {"outcome": "no_knee"}}}
+    # the smooth fold's warning (g_uncertain) and a stated uncertainty both leave a scan
+    # out, for the girth and for its length
+    assert sorted(unwarned_pairs([leg], "cG")) == [1.0]
+    assert len(unwarned_pairs([leg], "lG")) == 1
+    # a point with no warnings keeps every pair of the scans that fit: 4 scans, 6 pairs
+    leg["scans"]["noise"]["g_uncertain"] = False
+    leg["scans"]["holes"]["uncertainty"] = {}
+    assert len(unwarned_pairs([leg], "cG")) == 6
+
+
+def test_a_leg_whose_clean_scan_failed_has_no_pairs():
+    leg = {"scans": {"mesh_clean": {"outcome": "no_calf"}, "noise": _scan(500.0), "cloud": _scan(501.0)}}
+    assert unwarned_pairs([leg], "cG") == []
