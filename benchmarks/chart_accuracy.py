@@ -72,6 +72,9 @@ def chart_points(scan, side: str | None) -> dict:
             # ends): both state cE's uncertainty
             "e_uncertain": any(m.point.name == "cE" and m.uncertainty_mm is not None for m in measured),
             "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings),
+            # B or D taken at the scan's edge (the record's landmark says so, and a warning
+            # says how far off it may be)
+            "at_scan_edge": [name for name, entry in record.landmarks.items() if entry.get("at_scan_edge")],
             # F has no warning of its own: its uncertainty comes from E's and G's
             "f_uncertain": any(m.point.name == "cF" and m.uncertainty_mm is not None for m in measured)}
 
@@ -106,10 +109,12 @@ def _warning_check(per_leg: list[dict], point: str) -> dict:
 
 def _warned(scan: dict, point: str) -> bool:
     """Does the record warn about ``point`` (a girth cX, or its length lX)? It states the
-    point's uncertainty (uncertainty_mm), or warns that E or G is uncertain."""
+    point's uncertainty (uncertainty_mm), warns that E or G is uncertain, or takes B or D
+    at the scan's edge."""
     girth = "c" + point[1:] if point.startswith("l") else point
     flag = {"cE": "e_uncertain", "cF": "f_uncertain", "cG": "g_uncertain"}.get(girth)
-    return girth in scan.get("uncertainty", {}) or bool(flag and scan.get(flag))
+    return (girth in scan.get("uncertainty", {}) or bool(flag and scan.get(flag))
+            or girth[1:] in scan.get("at_scan_edge", ()))
 
 
 def unwarned_pairs(per_leg: list[dict], point: str) -> list[float]:

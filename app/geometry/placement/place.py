@@ -348,9 +348,13 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         # of the 5 generated scans that end there (benchmarks/robustness.py 220 7) 4 read cD
         # within 1.3 mm, one cut 52 mm below its knee waist 9 mm wide - the edge's girth can
         # only be the waist's or more
-        warnings.append("the scan ends at the knee waist D: D is taken at the scan's edge, where the leg may still be "
-                        "narrowing, so the knee waist may be thinner than cD and higher than lD; scan 3-4 cm further "
-                        "above the knee for a surer D")
+        # ... and where the waist is flat, the edge's girth is the waist's and the waist may
+        # lie below it: a sparse lower leg cut 20 mm above its waist read lD 22 mm high at
+        # cD 1.2 mm off (benchmarks/chart_accuracy.py 8 9, leg 6)
+        warnings.append("the scan ends at the knee waist D: D is taken at the scan's edge, so the knee waist may be "
+                        "thinner than cD and higher than lD (where the leg still narrows past the edge) or, where it "
+                        "is flat, up to 2-3 cm lower than lD at about cD's girth; scan 3-4 cm further above the knee "
+                        "for a surer D")
     placement = LegPlacement(**{**placement.__dict__, "side": found, "side_source": source,
                                 "side_confidence": confidence, "piece": candidate.piece,
                                 "half": candidate.half, "warnings": tuple(warnings),
