@@ -21,7 +21,8 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   the front of the ankle (ANSUR II's heel-ankle circumference; RAL-GZ 387's "Fersen-Rist-
   Umfang") and is pulled to the shortest such loop.  Its planes contain the foot's
   transverse axis and pass through the heel's posterior-inferior point (the foot point
-  furthest back-and-down, at 45 degrees in the sagittal plane); among those tilted 20-75
+  furthest back-and-down, at 45 degrees in the sagittal plane, on the heel's midline:
+  halfway between the sides of its lowest 40 mm); among those tilted 20-75
   degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
@@ -33,6 +34,14 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
   nor its heel's corner (:class:`app.geometry.anatomy.skin_points.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
+- **A side scanned sparser** (a scanner's far side) neither outweighs nor loses the
+  heel: its middle is read between the sides of its section (the graph's crossings join
+  no stray), not as its points' median (which also took the back of the shank), and its
+  corner is skin by each point's own spacing (:meth:`Skin.first` with
+  ``spacing_varies``; one spacing over all is the dense side's, and the sparse side's
+  points read as strays).  On clouds 4 times sparser on one half
+  the corner had moved up to 25 mm and cY read up to 7.6 mm short (held-out
+  chart_accuracy seeds 7 and 13).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -79,7 +88,8 @@ INSTEP_STEP_DEG = 2.5
 INSTEP_WINDOW = (0.15, 0.55)
 #: cY is read over this many neighbouring tilts (+-2.5 degrees), as cA over its band
 INSTEP_BAND_PLANES = 3
-#: the heel's middle (across the foot) is the median of the points this far from its end, mm
+#: the heel's middle (across the foot) is halfway between the sides of its section half
+#: this far from its end, over the section's lowest this much, mm
 HEEL_MIDDLE_SPAN_MM = 40.0
 #: an end whose section 6 mm inside is above this share of the ball girth was cut, not tapered
 END_TAPER_SHARE = 0.7
@@ -297,12 +307,20 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     # on the heel's midline: the planes contain the transverse axis, so where across the
     # heel the point lies does not matter, and a stray point beside the heel (a floor
     # point at the sole's level, 36 mm to its side, read cY 11 mm short) is not in the band
-    along, side = points @ axis, points @ across
-    heel_side = side[along < heel_t + HEEL_MIDDLE_SPAN_MM]
-    if not len(heel_side):
+    side = points @ across
+    # the heel's middle: halfway between the sides of its section HEEL_MIDDLE_SPAN_MM / 2
+    # from its end (the mesh's plane section, a cloud's crossings of its neighbour graph,
+    # which joins no stray to the skin), over the section's lowest HEEL_MIDDLE_SPAN_MM (the
+    # heel proper, not the back of the shank above it), the third point from either side
+    section = _sections(points, faces, edges, np.zeros(3), np.array([across, up, axis]),
+                        np.array([heel_t + HEEL_MIDDLE_SPAN_MM / 2.0]))[0]
+    heel_proper = section[section[:, 1] < section[:, 1].min() + HEEL_MIDDLE_SPAN_MM, 0] if len(section) else section
+    if len(heel_proper) < 6:
         return FootPoint("cY", None, reason="the heel is not in the scan")
-    band = np.flatnonzero(np.abs(side - np.median(heel_side)) <= HEEL_HALF_BAND_MM)
-    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down))
+    ends = np.partition(heel_proper, (2, len(heel_proper) - 3))
+    middle = float(ends[2] + ends[-3]) / 2.0
+    band = np.flatnonzero(np.abs(side - middle) <= HEEL_HALF_BAND_MM)
+    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down), spacing_varies=True)
     if corner is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
     heel = points[corner]

@@ -114,10 +114,13 @@ class Skin:
         in_skin = reach <= STRAY_ISOLATION * float(np.median(reach))
         return near_skin & in_skin & ~on_a_streak(self.points, nearest)
 
-    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
+    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0, spacing_varies: bool = False) -> int | None:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
         rising (its index into the points), None when there are not so many; the spacing
-        is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
+        is that of the SPACING_SAMPLE points first in that order (where the decision is),
+        or with ``spacing_varies`` each point's own (:meth:`of_each`: where the points
+        first in order straddle a dense and a sparse side, one spacing over them all is the
+        dense side's, and the sparse side's points read as strays)."""
         if len(index) <= skip:
             return None
         if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
@@ -127,13 +130,13 @@ class Skin:
         found = 0
         for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
-            skin = np.flatnonzero(self.of(batch, order))
+            skin = np.flatnonzero(self.of_each(batch) if spacing_varies else self.of(batch, order))
             if found + len(skin) > skip:
                 return int(batch[skin[skip - found]])
             found += len(skin)
         if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
             rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
-            skin = np.flatnonzero(self.of(index[rest], order))
+            skin = np.flatnonzero(self.of_each(index[rest]) if spacing_varies else self.of(index[rest], order))
             if found + len(skin) > skip:
                 return int(index[rest[skin[skip - found]]])
         return None
