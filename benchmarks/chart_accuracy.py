@@ -107,7 +107,7 @@ def _warning_check(per_leg: list[dict], point: str) -> dict:
             "stated": len(stated), "within_stated": sum(d <= u for u, d in stated)}
 
 
-def _warned(scan: dict, point: str) -> bool:
+def warned_about(scan: dict, point: str) -> bool:
     """Does the record warn about ``point`` (a girth cX, or its length lX)? It states the
     point's uncertainty (uncertainty_mm), warns that E or G is uncertain, or takes B or D
     at the scan's edge."""
@@ -125,7 +125,7 @@ def unwarned_pairs(per_leg: list[dict], point: str) -> list[float]:
         if entry["scans"]["mesh_clean"]["outcome"] != "fit":
             continue
         values = np.asarray([s[point] for s in entry["scans"].values()
-                             if s["outcome"] == "fit" and s.get(point) is not None and not _warned(s, point)])
+                             if s["outcome"] == "fit" and s.get(point) is not None and not warned_about(s, point)])
         apart.extend(np.abs(values[:, None] - values[None, :])[np.triu_indices(len(values), 1)].tolist())
     return apart
 
@@ -238,8 +238,8 @@ def write(summary: dict, stem: str = "chart_accuracy") -> None:
         f"{summary['seconds']:.0f} s.  |re-scan - clean|, mm.  Targets: girths 3 mm p95, lengths 5 mm p95; "
         f"one leg's re-scans within 2 mm p95 (girths), read two ways: the range of each leg's {len(RESCAN_KINDS) + 1} scans (its worst "
         "pair), p95 over the legs, and |a - b| over every two scans of one leg, p95 over all such pairs, and "
-        "over the pairs whose two readings the record does not warn about (a stated uncertainty, or a warning "
-        "that E or G is uncertain: the clinic re-measures those by tape).",
+        "over the pairs whose two readings the record does not warn about (a stated uncertainty, a warning "
+        "that E or G is uncertain, B or D at the scan's edge: the clinic re-measures those by tape).",
         "",
         "| point | n | p50 | p95 | max | range over one leg's scans, p95 | two scans of one leg apart, p95 "
         "| two unwarned scans apart, p95 | re-scans not measured |",

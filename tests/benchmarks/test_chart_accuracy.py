@@ -1,6 +1,6 @@
 """benchmarks/chart_accuracy.py: which re-scan pairs count as read without a warning."""
 
-from benchmarks.chart_accuracy import _warned, unwarned_pairs
+from benchmarks.chart_accuracy import unwarned_pairs, warned_about
 
 
 def _scan(cg: float, **flags) -> dict:
@@ -23,7 +23,7 @@ def test_a_reading_the_record_warns_about_is_left_out_of_the_unwarned_pairs():
 
 def test_a_knee_waist_at_the_scans_edge_is_a_warning_about_cd_and_ld_only():
     scan = {"outcome": "fit", "at_scan_edge": ["D"]}
-    assert _warned(scan, "cD") and _warned(scan, "lD") and not _warned(scan, "cB") and not _warned(scan, "lC")
+    assert warned_about(scan, "cD") and warned_about(scan, "lD") and not warned_about(scan, "cB") and not warned_about(scan, "lC")
 
 
 def test_a_leg_whose_clean_scan_failed_has_no_pairs():
