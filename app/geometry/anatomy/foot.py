@@ -37,9 +37,11 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
 - **A side scanned sparser** (a scanner's far side) neither outweighs nor loses the
   heel: its middle is read between the sides of its section (the graph's crossings join
   no stray), not as its points' median (which also took the back of the shank), and its
-  corner is skin by each point's own spacing (:meth:`Skin.first` with
-  ``spacing_varies``; one spacing over all is the dense side's, and the sparse side's
-  points read as strays).  On clouds 4 times sparser on one half
+  corner is a point of the skin's graph (its largest joined part: a floor's strays, as
+  evenly spread as a sparse skin, form their own) that is skin by the spacing round it
+  (:meth:`Skin.first` with ``spacing_varies``; one spacing over all is the dense side's,
+  and the sparse side's points read as strays; each point's own reach against its
+  neighbours' took a scanner's ghosts behind the heel for skin: cY 8.5 mm short).  On clouds 4 times sparser on one half
   the corner had moved up to 25 mm and cY read up to 7.6 mm short (held-out
   chart_accuracy seeds 7 and 13).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
@@ -52,6 +54,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
 from app.geometry.anatomy.level_runs import running_median
@@ -320,6 +324,12 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     ends = np.partition(heel_proper, (2, len(heel_proper) - 3))
     middle = float(ends[2] + ends[-3]) / 2.0
     band = np.flatnonzero(np.abs(side - middle) <= HEEL_HALF_BAND_MM)
+    if edges is not None and faces is None and len(edges):
+        # a cloud's corner is on its skin's graph: the largest set of points its edges join
+        # (a floor's strays, sampled like a sparse skin, form their own; ghosts join nothing)
+        joined = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(points), len(points)))
+        _, part = connected_components(joined, directed=False)
+        band = band[part[band] == np.argmax(np.bincount(part))]
     corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down), spacing_varies=True)
     if corner is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
