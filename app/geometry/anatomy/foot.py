@@ -34,16 +34,17 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
   nor its heel's corner (:class:`app.geometry.anatomy.skin_points.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
-- **A side scanned sparser** (a scanner's far side) neither outweighs nor loses the
-  heel: its middle is read between the sides of its section (the graph's crossings join
-  no stray), not as its points' median (which also took the back of the shank), and its
-  corner is a point of the skin's graph (its largest joined part: a floor's strays, as
-  evenly spread as a sparse skin, form their own) that is skin by the spacing round it
-  (:meth:`Skin.first` with ``spacing_varies``; one spacing over all is the dense side's,
-  and the sparse side's points read as strays; each point's own reach against its
-  neighbours' took a scanner's ghosts behind the heel for skin: cY 8.5 mm short).  On clouds 4 times sparser on one half
-  the corner had moved up to 25 mm and cY read up to 7.6 mm short (held-out
-  chart_accuracy seeds 7 and 13).
+- **A side scanned sparser** (a scanner's far side) does not pull the heel's middle over:
+  it is read between the sides of its section (the graph's crossings join no stray), not
+  as its points' median, which also took the back of the shank and moved 7-17 mm to the
+  dense side, so the corner - and cY's planes - moved up to 25 mm and cY read up to 7.6
+  mm short (held-out chart_accuracy seeds 7 and 13).  The corner is a point of a cloud's
+  skin graph (its largest joined part: a floor's strays, spread like a sparse skin, form
+  their own) that is skin by one spacing over the points first in order - the dense
+  side's, so a sparse side's corner may still read as a stray and give way to one a few
+  mm over (cY up to 2 mm short).  Judged on the spacing round each point instead, a
+  scanner's streak off the heel passed as skin at its root (cY +1 mm), and judged on each
+  point's reach against its neighbours' so did ghosts behind the heel (cY 6-8.5 mm short).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -330,7 +331,7 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
         joined = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(points), len(points)))
         _, part = connected_components(joined, directed=False)
         band = band[part[band] == np.argmax(np.bincount(part))]
-    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down), spacing_varies=True)
+    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down))
     if corner is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
     heel = points[corner]

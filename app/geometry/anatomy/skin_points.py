@@ -40,9 +40,6 @@ STRAY_RADIUS_SPACINGS = 4.0
 STRAY_NEIGHBOURS = 4
 #: the skin's spacing round the points tested is the median over this many of them
 SPACING_SAMPLE = 2000
-#: :meth:`Skin.of_local`: the spacing round a point is its this many nearest points' median
-#: nearest-neighbour distance
-SPACING_NEIGHBOURS = 16
 #: the lowest points are tested this many at a time, lowest first
 STRAY_BATCH = 256
 #: :meth:`Skin.of_each`: a point's STRAY_NEIGHBOURS-th nearest distance over the median of
@@ -91,21 +88,6 @@ class Skin:
         _, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
         return dense & ~on_a_streak(self.points, nearest)
 
-    def of_local(self, index: np.ndarray) -> np.ndarray:
-        """(k,) bool for the points ``index`` (k,), each judged on the spacing round it: its
-        SPACING_NEIGHBOURS nearest points' median nearest-neighbour distance.  A ghost off
-        the skin has skin nearest, so the skin's spacing judges it (no neighbours within
-        STRAY_RADIUS_SPACINGS of it); a point of a side scanned sparser has that side's
-        spacing, not the dense side's that one spacing over both would be (its points,
-        then without 4 neighbours in 4 dense spacings, read as strays)."""
-        if self.tree is None or not len(index):
-            return np.ones(len(index), dtype=bool)
-        _, nearest = self.tree.query(self.points[index], k=SPACING_NEIGHBOURS + 1)
-        spacing = self.tree.query(self.points[nearest[:, 1:].ravel()], k=2)[0][:, 1].reshape(len(index), -1)
-        radius = STRAY_RADIUS_SPACINGS * np.median(spacing, axis=1)
-        dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
-        return dense & ~on_a_streak(self.points, nearest[:, : STREAK_NEIGHBOURS + 1])
-
     def of_each(self, index: np.ndarray) -> np.ndarray:
         """(k,) bool for the points ``index`` (k,) spread over a scan whose spacing changes
         among them (the whole back of a thigh; a scanner that saw one side at a slant, the
@@ -132,13 +114,10 @@ class Skin:
         in_skin = reach <= STRAY_ISOLATION * float(np.median(reach))
         return near_skin & in_skin & ~on_a_streak(self.points, nearest)
 
-    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0, spacing_varies: bool = False) -> int | None:
+    def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
         rising (its index into the points), None when there are not so many; the spacing
-        is that of the SPACING_SAMPLE points first in that order (where the decision is),
-        or with ``spacing_varies`` the spacing round each point (:meth:`of_local`: where
-        the points first in order straddle a dense and a sparse side, one spacing over them
-        all is the dense side's, and the sparse side's points read as strays)."""
+        is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
         if len(index) <= skip:
             return None
         if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
@@ -148,13 +127,13 @@ class Skin:
         found = 0
         for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
-            skin = np.flatnonzero(self.of_local(batch) if spacing_varies else self.of(batch, order))
+            skin = np.flatnonzero(self.of(batch, order))
             if found + len(skin) > skip:
                 return int(batch[skin[skip - found]])
             found += len(skin)
         if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
             rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
-            skin = np.flatnonzero(self.of_local(index[rest]) if spacing_varies else self.of(index[rest], order))
+            skin = np.flatnonzero(self.of(index[rest], order))
             if found + len(skin) > skip:
                 return int(index[rest[skin[skip - found]]])
         return None
