@@ -22,7 +22,8 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   Umfang") and is pulled to the shortest such loop.  Its planes contain the foot's
   transverse axis and pass through the heel's posterior-inferior point (the foot point
   furthest back-and-down, at 45 degrees in the sagittal plane, on the heel's midline:
-  halfway between the sides of its lowest 40 mm); among those tilted 20-75
+  halfway between the sides of its section 20 mm from its end, over that section's lowest
+  40 mm); among those tilted 20-75
   degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
