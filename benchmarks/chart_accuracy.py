@@ -107,6 +107,12 @@ def _warning_check(per_leg: list[dict], point: str) -> dict:
             "stated": len(stated), "within_stated": sum(d <= u for u, d in stated)}
 
 
+def _apart(values) -> list[float]:
+    """|a - b| over every two of ``values`` (one leg's readings of a point), mm."""
+    a = np.asarray(values, dtype=float)
+    return np.abs(a[:, None] - a[None, :])[np.triu_indices(len(a), 1)].tolist()
+
+
 def warned_about(scan: dict, point: str) -> bool:
     """Does the record warn about ``point`` (a girth cX, or its length lX)? It states the
     point's uncertainty (uncertainty_mm), warns that E or G is uncertain, or takes B or D
@@ -124,9 +130,9 @@ def unwarned_pairs(per_leg: list[dict], point: str) -> list[float]:
     for entry in per_leg:
         if entry["scans"]["mesh_clean"]["outcome"] != "fit":
             continue
-        values = np.asarray([s[point] for s in entry["scans"].values()
-                             if s["outcome"] == "fit" and s.get(point) is not None and not warned_about(s, point)])
-        apart.extend(np.abs(values[:, None] - values[None, :])[np.triu_indices(len(values), 1)].tolist())
+        values = [s[point] for s in entry["scans"].values()
+                  if s["outcome"] == "fit" and s.get(point) is not None and not warned_about(s, point)]
+        apart.extend(_apart(values))
     return apart
 
 
@@ -171,8 +177,7 @@ def main(legs: int = 8, seed: int = 11) -> dict:
                 ranges[point].append(max(values) - min(values))
                 # every two scans of the leg: how far apart two visits' readings are (the
                 # range is the worst pair of 15 scans, so its p95 over 8 legs is nearly a max)
-                a = np.asarray(values)
-                pairs[point].extend(np.abs(a[:, None] - a[None, :])[np.triu_indices(len(a), 1)].tolist())
+                pairs[point].extend(_apart(values))
         for kind in RESCAN_KINDS:
             scan = entry["scans"][kind]
             if scan["outcome"] != "fit":
