@@ -309,33 +309,9 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     dorsum of the forefoot and is no heel-instep loop) and below INSTEP_TOP_MM (a steeper
     one runs up the shank, out of the part of the scan it is measured on)."""
     up = np.array([0.0, 0.0, 1.0])
-    back_down = -(axis + up) / np.sqrt(2.0)
-    # on the heel's midline: the planes contain the transverse axis, so where across the
-    # heel the point lies does not matter, and a stray point beside the heel (a floor
-    # point at the sole's level, 36 mm to its side, read cY 11 mm short) is not in the band
-    side = points @ across
-    # the heel's middle: halfway between the sides of its section HEEL_MIDDLE_SPAN_MM / 2
-    # from its end (the mesh's plane section, a cloud's crossings of its neighbour graph,
-    # which joins no stray to the skin), over the section's lowest HEEL_MIDDLE_SPAN_MM (the
-    # heel proper, not the back of the shank above it), the third point from either side
-    section = _sections(points, faces, edges, np.zeros(3), np.array([across, up, axis]),
-                        np.array([heel_t + HEEL_MIDDLE_SPAN_MM / 2.0]))[0]
-    heel_proper = section[section[:, 1] < section[:, 1].min() + HEEL_MIDDLE_SPAN_MM, 0] if len(section) else section
-    if len(heel_proper) < 6:
+    heel = _heel_corner(points, faces, axis, across, heel_t, edges, tree)
+    if heel is None:
         return FootPoint("cY", None, reason="the heel is not in the scan")
-    ends = np.partition(heel_proper, (2, len(heel_proper) - 3))
-    middle = float(ends[2] + ends[-3]) / 2.0
-    band = np.flatnonzero(np.abs(side - middle) <= HEEL_HALF_BAND_MM)
-    if edges is not None and faces is None and len(edges):
-        # a cloud's corner is on its skin's graph: the largest set of points its edges join
-        # (a floor's strays, sampled like a sparse skin, form their own; ghosts join nothing)
-        joined = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(points), len(points)))
-        _, part = connected_components(joined, directed=False)
-        band = band[part[band] == np.argmax(np.bincount(part))]
-    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down))
-    if corner is None:
-        return FootPoint("cY", None, reason="the heel is not in the scan")
-    heel = points[corner]
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
     loops: list[np.ndarray] = []  # each tilt's section, empty where it is no heel-instep loop
     centres = np.zeros((len(tilts), 3))
@@ -360,3 +336,37 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     # the least of single loops is biased down by their noise, as the ball girth's largest up
     best, girth = _extreme_tape(loops, coarse, INSTEP_BAND_PLANES, largest=False)
     return FootPoint("cY", girth, _xyz(centres[best]))
+
+
+def _heel_corner(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray, heel_t: float,
+                 edges: np.ndarray | None, tree: cKDTree | None) -> np.ndarray | None:
+    """The heel's posterior-inferior point (3,) mm, cY's pivot (module docstring), or None
+    when the heel is not in the scan."""
+    up = np.array([0.0, 0.0, 1.0])
+    back_down = -(axis + up) / np.sqrt(2.0)
+    # on the heel's midline: the planes contain the transverse axis, so where across the
+    # heel the point lies does not matter, and a stray point beside the heel (a floor
+    # point at the sole's level, 36 mm to its side, read cY 11 mm short) is not in the band
+    side = points @ across
+    # the heel's middle: halfway between the sides of its section HEEL_MIDDLE_SPAN_MM / 2
+    # from its end (the mesh's plane section, a cloud's crossings of its neighbour graph,
+    # which joins no stray to the skin), over the section's lowest HEEL_MIDDLE_SPAN_MM (the
+    # heel proper, not the back of the shank above it), the third point from either side
+    section = _sections(points, faces, edges, np.zeros(3), np.array([across, up, axis]),
+                        np.array([heel_t + HEEL_MIDDLE_SPAN_MM / 2.0]))[0]
+    heel_proper = section[section[:, 1] < section[:, 1].min() + HEEL_MIDDLE_SPAN_MM, 0] if len(section) else section
+    if len(heel_proper) < 6:
+        return None
+    ends = np.partition(heel_proper, (2, len(heel_proper) - 3))
+    middle = float(ends[2] + ends[-3]) / 2.0
+    band = np.flatnonzero(np.abs(side - middle) <= HEEL_HALF_BAND_MM)
+    if edges is not None and faces is None and len(edges):
+        # a cloud's corner is on its skin's graph: the largest set of points its edges join
+        # (a floor's strays, sampled like a sparse skin, form their own; ghosts join nothing)
+        joined = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(len(points), len(points)))
+        _, part = connected_components(joined, directed=False)
+        band = band[part[band] == np.argmax(np.bincount(part))]
+    corner = Skin(points, faces is not None, tree).first(band, -(points[band] @ back_down))
+    if corner is None:
+        return None
+    return points[corner]
