@@ -10,7 +10,11 @@ the foot's mid-line.  The statistic is
     s = (x of the front-most 10% of the foot - x of the mid-foot) / foot breadth
 
 s < 0 (front medial = towards -x, the subject's left) for a right foot, s > 0 for a
-left one.  The confidence is a logistic of |s| against the spread of s measured on
+left one.  Its quantiles are the skin's (each point weighted by its share of the skin's
+area, app.geometry.scan.sampling): a cloud sampled 4 times sparser on one side moved the
+points' own medians to the dense side and, with the frame that the points' mean foot
+turned (app.geometry.placement.calf_frame.anterior_from_foot), read s 0.23 the wrong
+way.  The confidence is a logistic of |s| against the spread of s measured on
 generated legs (``benchmarks/robustness.py`` reports it); below 0.75 - about one
 spread from zero - the side is not reported (null).
 """
@@ -20,6 +24,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from app.geometry.scan.sampling import area_weights, weighted_quantile
 
 #: the foot is the part of the scan this far below B, mm (B lies ~50-80 mm above the sole)
 FOOT_BELOW_B_MM = 30.0
@@ -50,19 +56,22 @@ def foot_asymmetry(calf_points: np.ndarray) -> float | None:
     foot = calf_points[calf_points[:, 2] < -FOOT_BELOW_B_MM]
     if len(foot) < 200:
         return None
+    weight = area_weights(foot)  # quantiles of the skin, not of the scanner's sampling
     y = foot[:, 1]
-    lo, hi = np.percentile(y, [1, 99.5])
+    lo, hi = weighted_quantile(y, weight, 0.01), weighted_quantile(y, weight, 0.995)
     length = hi - lo
     if length < 100.0:  # a foot is 200-300 mm long; under 100 mm there is no forefoot
         return None
-    front = foot[y >= hi - FRONT_FRACTION * length, 0]
-    middle = foot[(y >= lo + 0.3 * length) & (y <= lo + 0.7 * length), 0]
-    if len(front) < 20 or len(middle) < 20:
+    front = y >= hi - FRONT_FRACTION * length
+    middle = (y >= lo + 0.3 * length) & (y <= lo + 0.7 * length)
+    if front.sum() < 20 or middle.sum() < 20:
         return None
-    breadth = np.percentile(middle, 98) - np.percentile(middle, 2)
+    x = foot[:, 0]
+    breadth = weighted_quantile(x[middle], weight[middle], 0.98) - weighted_quantile(x[middle], weight[middle], 0.02)
     if breadth < 40.0:
         return None
-    return float((np.median(front) - np.median(middle)) / breadth)
+    return float((weighted_quantile(x[front], weight[front], 0.5) - weighted_quantile(x[middle], weight[middle], 0.5))
+                 / breadth)
 
 
 def infer_side(calf_points: np.ndarray, anterior_cue: str) -> SideGuess:

@@ -1,10 +1,13 @@
 """Reading a scan and cleaning it: the readers (STL, PLY, OBJ, OFF, glTF/GLB, XYZ/CSV) with their
-integrity and size checks, and the clean-up (floor, spikes, stray pieces).  Units: mm.
+integrity and size checks, the clean-up (floor, spikes, stray pieces) and the points' share of
+the skin (sampling: statistics over the skin, not over the scanner's sampling).  Units: mm.
 """
 
 from __future__ import annotations
 
 from app.geometry.scan.cleanup import CleanScan, clean_scan
 from app.geometry.scan.reader import SUPPORTED_FORMATS, UNIT_SCALE_MM, Scan, load_scan
+from app.geometry.scan.sampling import area_weights, weighted_quantile
 
-__all__ = ["CleanScan", "SUPPORTED_FORMATS", "Scan", "UNIT_SCALE_MM", "clean_scan", "load_scan"]
+__all__ = ["CleanScan", "SUPPORTED_FORMATS", "Scan", "UNIT_SCALE_MM", "area_weights", "clean_scan", "load_scan",
+           "weighted_quantile"]
