@@ -1,6 +1,6 @@
 """benchmarks/chart_accuracy.py: which re-scan pairs count as read without a warning."""
 
-from benchmarks.chart_accuracy import unwarned_pairs, warned_about
+from benchmarks.chart_accuracy import unwarned_pairs, unwarned_readings, warned_about
 
 
 def _scan(cg: float, **flags) -> dict:
@@ -15,6 +15,8 @@ def test_a_reading_the_record_warns_about_is_left_out_of_the_unwarned_pairs():
     # out, for the girth and for its length
     assert sorted(unwarned_pairs([leg], "cG")) == [1.0]
     assert len(unwarned_pairs([leg], "lG")) == 1
+    # and the table says how many readings the unwarned pairs stand on
+    assert unwarned_readings([leg], "cG") == (2, 4)
     # a point with no warnings keeps every pair of the scans that fit: 4 scans, 6 pairs
     leg["scans"]["noise"]["g_uncertain"] = False
     leg["scans"]["holes"]["uncertainty"] = {}
@@ -29,3 +31,4 @@ def test_a_knee_waist_at_the_scans_edge_is_a_warning_about_cd_and_ld_only():
 def test_a_leg_whose_clean_scan_failed_has_no_pairs():
     leg = {"scans": {"mesh_clean": {"outcome": "no_calf"}, "noise": _scan(500.0), "cloud": _scan(501.0)}}
     assert unwarned_pairs([leg], "cG") == []
+    assert unwarned_readings([leg], "cG") == (0, 0)
