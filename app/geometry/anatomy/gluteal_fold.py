@@ -14,6 +14,7 @@ import numpy as np
 
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled, run_around, run_between_crossings
 from app.geometry.anatomy.skin_points import Skin
+from app.geometry.scan.sampling import grouped_weighted_quantiles
 from app.geometry.sections import mesh_section_segments, round_edge_crossings
 
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
@@ -121,24 +122,9 @@ STRAY_SHELL_MM = 10.0
 def _rearmost(group: np.ndarray, y: np.ndarray, weight: np.ndarray, n_heights: int,
               percentile: float = REAR_PERCENTILE) -> np.ndarray:
     """(n_heights,) the weighted ``percentile`` of ``y`` (m,) in each ``group`` (m,) of
-    0..n_heights-1: the least y whose group's weights (m,) up to it reach the percentile
-    of the group's total (no interpolation); NaN for an empty group.  mm."""
-    rear = np.full(n_heights, np.nan)
-    if not len(group):
-        return rear
-    # by group, then y: one float key (a group's span of y past every y of the one below),
-    # sorted 3-4 times faster than np.lexsort's two keys
-    low = float(y.min())
-    order = np.argsort(group * (float(y.max()) - low + 1.0) + (y - low))
-    group, y, weight = group[order], y[order], weight[order]
-    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
-    ends = np.r_[starts[1:], len(group)]
-    running = np.cumsum(weight)
-    before = np.r_[0.0, running][starts]
-    reach = before + percentile / 100 * (running[ends - 1] - before)
-    pick = np.clip(np.searchsorted(running, reach, side="left"), starts, ends - 1)
-    rear[group[starts]] = y[pick]
-    return rear
+    0..n_heights-1 (:func:`app.geometry.scan.sampling.grouped_weighted_quantiles`); NaN
+    for an empty group.  mm."""
+    return grouped_weighted_quantiles(group, y, weight, n_heights, percentile / 100)[:, 0]
 
 
 def _sector_weights(group: np.ndarray, x: np.ndarray, y: np.ndarray, n_heights: int) -> np.ndarray:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.scan.sampling import area_weights, weighted_quantile
+from app.geometry.scan.sampling import area_weights, weighted_quantiles
 
 #: the foot is the part of the scan this far below B, mm (B lies ~50-80 mm above the sole)
 FOOT_BELOW_B_MM = 30.0
@@ -58,7 +58,7 @@ def foot_asymmetry(calf_points: np.ndarray) -> float | None:
         return None
     weight = area_weights(foot)  # quantiles of the skin, not of the scanner's sampling
     y = foot[:, 1]
-    lo, hi = weighted_quantile(y, weight, 0.01), weighted_quantile(y, weight, 0.995)
+    lo, hi = weighted_quantiles(y, weight, (0.01, 0.995))
     length = hi - lo
     if length < 100.0:  # a foot is 200-300 mm long; under 100 mm there is no forefoot
         return None
@@ -67,11 +67,11 @@ def foot_asymmetry(calf_points: np.ndarray) -> float | None:
     if front.sum() < 20 or middle.sum() < 20:
         return None
     x = foot[:, 0]
-    breadth = weighted_quantile(x[middle], weight[middle], 0.98) - weighted_quantile(x[middle], weight[middle], 0.02)
+    side_low, side_high, mid_line = weighted_quantiles(x[middle], weight[middle], (0.02, 0.98, 0.5))
+    breadth = side_high - side_low
     if breadth < 40.0:
         return None
-    return float((weighted_quantile(x[front], weight[front], 0.5) - weighted_quantile(x[middle], weight[middle], 0.5))
-                 / breadth)
+    return float((weighted_quantiles(x[front], weight[front], 0.5)[0] - mid_line) / breadth)
 
 
 def infer_side(calf_points: np.ndarray, anterior_cue: str) -> SideGuess:

@@ -45,9 +45,37 @@ def area_weights(points: np.ndarray) -> np.ndarray:
     return np.minimum(share, MAX_SHARE_RATIO * typical) / typical
 
 
+def grouped_weighted_quantiles(group: np.ndarray, values: np.ndarray, weights: np.ndarray, n_groups: int,
+                                quantiles) -> np.ndarray:
+    """(n_groups, q) the weighted ``quantiles`` (q,) in 0..1 of ``values`` (m,) within each
+    ``group`` (m,) label in 0..n_groups-1: the least value whose group's ``weights`` (m,,
+    positive) up to it reach the quantile of the group's total (no interpolation); NaN
+    rows for empty groups.  One sort for every group and quantile."""
+    q = np.atleast_1d(np.asarray(quantiles, dtype=np.float64))
+    out = np.full((n_groups, len(q)), np.nan)
+    if not len(group):
+        return out
+    # by group, then value: one float key (a group's span of values past every value of
+    # the one below), sorted 3-4 times faster than np.lexsort's two keys
+    low = float(values.min())
+    order = np.argsort(group * (float(values.max()) - low + 1.0) + (values - low))
+    group, values, weights = group[order], values[order], weights[order]
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    ends = np.r_[starts[1:], len(group)]
+    running = np.cumsum(weights)
+    before = np.r_[0.0, running][starts]
+    reach = before[:, None] + q[None, :] * (running[ends - 1] - before)[:, None]
+    pick = np.clip(np.searchsorted(running, reach, side="left"), starts[:, None], ends[:, None] - 1)
+    out[group[starts]] = values[pick]
+    return out
+
+
+def weighted_quantiles(values: np.ndarray, weights: np.ndarray, quantiles) -> np.ndarray:
+    """(q,) the weighted ``quantiles`` (q,) in 0..1 of ``values`` (m,) under ``weights``
+    (m,, positive): :func:`grouped_weighted_quantiles` over one group."""
+    return grouped_weighted_quantiles(np.zeros(len(values), dtype=np.int64), values, weights, 1, quantiles)[0]
+
+
 def weighted_quantile(values: np.ndarray, weights: np.ndarray, q: float) -> float:
-    """The ``q`` (0..1) quantile of ``values`` (m,) under ``weights`` (m,, positive): the
-    least value whose weights up to it reach q of the total (no interpolation)."""
-    order = np.argsort(values, kind="stable")
-    running = np.cumsum(weights[order])
-    return float(values[order][min(int(np.searchsorted(running, q * running[-1])), len(values) - 1)])
+    """The weighted ``q`` (0..1) quantile of ``values`` (m,): :func:`weighted_quantiles`."""
+    return float(weighted_quantiles(values, weights, [q])[0])
