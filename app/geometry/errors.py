@@ -94,6 +94,18 @@ class BulgeOnFlank(FitFailure):
         self.girth_mm = float(girth_mm)
 
 
+class CalfWithoutBulge(FitFailure):
+    """A ``no_calf`` refusal of a lower leg that stands on its foot but has no ankle waist
+    and calf bulge to find B, C and D on: its ankle is nearly as wide as its calf (an
+    oedematous or lymphoedematous leg).  Positive evidence about the scan - a foot with
+    a leg above it, measured - so it outranks a found foot and a missing ankle, and yields
+    only to a candidate that found ankle and calf (a missing knee).  Crosses a process
+    boundary as a plain :class:`FitFailure`."""
+
+    def __init__(self, detail: str):
+        super().__init__(FailureReason.NO_CALF, detail)
+
+
 class RisesToEdge(FitFailure):
     """A ``no_knee`` (``no_ankle``) refusal of a profile that only rises to the scan's
     top (bottom) edge: no ankle and no calf maximum were found, only a girth growing

@@ -60,6 +60,30 @@ def vertex_noise(mesh: trimesh.Trimesh, sigma_mm: float, rng: np.random.Generato
     return trimesh.Trimesh(moved, mesh.faces, process=False)
 
 
+#: the swelling spares the sole: skin whose normal points further down the shank axis
+#: than this cosine (the sole's, which bears the weight and does not swell outwards)
+SOLE_NORMAL_COS = -0.7
+
+
+def swell_lower_leg(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarray, swelling_mm: float,
+                    reach: float) -> trimesh.Trimesh:
+    """An oedematous (lymphoedematous) lower leg: the skin moved out along its normals by
+    ``swelling_mm`` over the foot and the ankle (up to 20 mm above the ankle joint),
+    fading as a half cosine to none at ``reach`` (0..1) of the way from the ankle joint
+    to the knee joint; the sole stays (SOLE_NORMAL_COS).  Swelling of venous disease and
+    lymphoedema is greatest at the foot and ankle and fades up the leg, so the ankle
+    widens towards the calf and the knee waist: the calf's bulge over the ankle C/B falls
+    from ANSUR II's 1.40-2.3 towards 1, and a swollen ankle can be wider than the knee
+    waist.  ``ankle_mm``, ``knee_mm`` (3,) the joints, mm."""
+    axis = (knee_mm - ankle_mm) / np.linalg.norm(knee_mm - ankle_mm)
+    shank = float(np.linalg.norm(knee_mm - ankle_mm))
+    height = (mesh.vertices - ankle_mm) @ axis
+    fade = np.clip((height - 20.0) / max(reach * shank - 20.0, 1.0), 0.0, 1.0)
+    normals = mesh.vertex_normals
+    weight = 0.5 * (1.0 + np.cos(np.pi * fade)) * (normals @ axis > SOLE_NORMAL_COS)
+    return trimesh.Trimesh(mesh.vertices + (swelling_mm * weight)[:, None] * normals, mesh.faces, process=False)
+
+
 def sample_cloud(mesh: trimesh.Trimesh, count: int, rng: np.random.Generator) -> np.ndarray:
     """(count, 3) points drawn uniformly by area from the surface."""
     points, _ = trimesh.sample.sample_surface(mesh, count, seed=int(rng.integers(2**31)))

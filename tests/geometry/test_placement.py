@@ -154,3 +154,71 @@ def test_two_unmerged_passes_of_one_leg_are_one_leg_measured_once_and_said(tmp_p
     with pytest.raises(FitFailure) as refused:
         check_scan(load_scan(path))
     assert refused.value.reason is FailureReason.SEVERAL_LEGS
+
+
+# --- swollen legs ---------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def right_leg_of_subject_137():
+    """A generated adult's right leg with its foot (ANSUR II subject index 137's
+    MakeHuman leg, mm) and its ankle and knee joints."""
+    from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
+
+    legs = sized_legs(ansur_subjects()[137], np.random.default_rng(137), subdivisions=2)
+    return leg_submesh(legs.vertices, legs.faces, -1.0), legs.joints["r-ankle"], legs.joints["r-knee"]
+
+
+def _swollen_scan(leg, swelling_mm: float, reach: float):
+    from benchmarks.corpus.degrade import swell_lower_leg
+    from benchmarks.corpus.truth import measure_truth
+
+    mesh, ankle, knee = leg
+    swollen = swell_lower_leg(mesh, ankle, knee, swelling_mm, reach)
+    return load_scan(swollen.export(file_type="stl"), file_type="stl"), measure_truth(swollen, ankle, knee)
+
+
+def test_a_swollen_ankle_wider_than_its_knee_waist_is_measured_foot_down(right_leg_of_subject_137):
+    """Swollen 14 mm over the foot and ankle, fading to none 0.7 of the way up the shank
+    (benchmarks/swollen.py): the ankle (315 mm) has grown wider than the knee waist is
+    thicker than it by MIN_KNEE_RATIO, but the calf still bulges over it (C/B 1.23).  It
+    was refused for a missing knee; the foot tells the ankle's end, and B, C and D are
+    measured within a tape's reading of the swollen leg's own."""
+    scan, truth = _swollen_scan(right_leg_of_subject_137, 14.0, 0.7)
+    assert truth.girths_mm["D"] < 1.05 * truth.girths_mm["B"]
+    fit = fit_scan(scan, FitOptions(side="right"))
+    for name, tolerance in (("B", 2.0), ("C", 2.0), ("D", 4.0)):
+        assert abs(fit.landmarks.tape_girths_mm[name] - truth.girths_mm[name]) < tolerance, name
+
+
+def test_a_swollen_leg_read_upside_down_is_refused_for_its_missing_calf_bulge(right_leg_of_subject_137):
+    """Swollen 25 mm, fading to none 0.9 of the way up: the ankle (385 mm) is as wide as
+    the calf (419, C/B 1.09) and wider than the knee waist (328).  Read with the foot
+    up, the knee waist passed for an ankle and the swollen ankle for a knee waist: a
+    record of cB 323 and cD 390 mm, with only a warning that the foot looked like a left
+    one.  A foot is at the bottom of a leg: read foot down, the leg has no calf bulge,
+    and the refusal says so and what to do instead."""
+    scan, truth = _swollen_scan(right_leg_of_subject_137, 25.0, 0.9)
+    assert truth.girths_mm["C"] < 1.2 * truth.girths_mm["B"]
+    with pytest.raises(FitFailure) as caught:
+        check_scan(scan, FitOptions(side="right"))
+    assert caught.value.reason is FailureReason.NO_CALF
+    assert "no calf bulge" in caught.value.detail and "by tape" in caught.value.detail, caught.value.detail
+
+
+def test_a_swollen_leg_is_not_measured_on_its_thigh_as_a_bent_knees_run():
+    """A leg swollen 23 mm, fading 0.87 of the way up (benchmarks/swollen.py 40 19, case
+    37: subject index 2629's right leg): read straight, foot down, it stands on its foot
+    without a calf bulge (C/B 1.10).  The straight runs of a bent knee were tried next, and
+    the thigh's run, cut free above the knee, read the knee waist as an ankle and the
+    thigh as a calf: a record of cC 145 mm over the leg's.  A run whose ankle stands on no
+    foot is not taken after the straight leg stood on its own."""
+    from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
+
+    legs = sized_legs(ansur_subjects()[2629], np.random.default_rng(1816406312), subdivisions=2)
+    leg = (leg_submesh(legs.vertices, legs.faces, -1.0), legs.joints["r-ankle"], legs.joints["r-knee"])
+    scan, truth = _swollen_scan(leg, 23.068, 0.8669)
+    assert truth.girths_mm["C"] < 1.15 * truth.girths_mm["B"]
+    with pytest.raises(FitFailure) as caught:
+        check_scan(scan, FitOptions(side="right"))
+    assert caught.value.reason is FailureReason.NO_CALF and "no calf bulge" in caught.value.detail, caught.value.detail

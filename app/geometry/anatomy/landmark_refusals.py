@@ -6,7 +6,7 @@ stage (:func:`failure_stage`) says which of several refusals tells the most.  Un
 
 from __future__ import annotations
 
-from app.geometry.errors import FailureReason, FitFailure, FootFound, RisesToEdge
+from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, FootFound, RisesToEdge
 
 #: how far a candidate got before it failed (higher is more informative)
 #: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
@@ -18,8 +18,12 @@ FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureRe
 def failure_stage(failure: FitFailure) -> float:
     """How informative a candidate's refusal is: :data:`FAILURE_STAGE`, and a found foot
     (:class:`FootFound`) between a missing ankle and a missing knee (it identified the
-    bulge; a missing ankle only did not find one below it; a missing knee found both);
-    a girth that only rises to an edge (:class:`RisesToEdge`) below a missing ankle."""
+    bulge; a missing ankle only did not find one below it; a missing knee found both), a
+    leg without a calf bulge above its foot (:class:`CalfWithoutBulge`) above a found foot
+    (it measured the foot and the leg on it); a girth that only rises to an edge
+    (:class:`RisesToEdge`) below a missing ankle."""
+    if isinstance(failure, CalfWithoutBulge):
+        return 1.75
     if isinstance(failure, FootFound):
         return 1.5
     if isinstance(failure, RisesToEdge):
@@ -69,3 +73,12 @@ def no_calf(detail: str) -> FitFailure:
         f"{detail}. The scan must hold the whole lower leg: from below the ankle bones to above "
         "the knee joint, with the calf in between.",
     )
+
+
+def calf_without_bulge(detail: str) -> CalfWithoutBulge:
+    """A lower leg on its foot without an ankle waist and calf bulge (``detail`` says what
+    was measured): what it is, and what to do instead of scanning again."""
+    return CalfWithoutBulge(
+        f"{detail}. A lower leg nearly as wide at the ankle as at the calf (oedema, lymphoedema) has no ankle "
+        "waist and calf bulge for the landmarks B, C and D to be found on, and scanning it again will not give "
+        "them: take its measurements by tape at the order form's points.")

@@ -23,9 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION, FeatureHeights
 from app.geometry.anatomy.landmark_refusals import failure_stage
-from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, FeatureHeights, find_feature_heights
-from app.geometry.errors import FailureReason, FitFailure, FootFound
+from app.geometry.anatomy.landmarks import find_feature_heights
+from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, FootFound
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import partial_view
 from app.geometry.placement.knee_bend import keep_index, shank_runs
@@ -215,9 +216,14 @@ def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -
 def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) -> tuple[FeatureHeights, bool]:
     """Landmarks with the scan's axis as it is or reversed; (features, reversed?).
 
-    When both orientations give landmarks (possible once landmarks may lie at the scan's
-    edge), the one with fewer landmarks at the edge wins, then the one whose knee end is
-    thicker relative to the ankle (anatomy: D/B is 1.4-1.7, its inverse below 1).
+    A foot is at the bottom of a leg: where one end of the scan holds a foot (its tenth of
+    the sections is elongated, MAX_CALF_ELONGATION) and the other does not, the landmarks
+    are read with that end down, and read the other way they are refused (a swollen
+    lower leg whose ankle is wider than its knee waist reads as a calf upside down, the
+    knee waist as its ankle: benchmarks/swollen.py).  Otherwise, when both orientations
+    give landmarks (possible once landmarks may lie at the scan's edge), the one with
+    fewer landmarks at the edge wins, then the one whose knee end is thicker relative to
+    the ankle (anatomy: D/B is 1.4-1.7, its inverse below 1).
     """
     found, failures = [], []
     for flipped in (False, True):
@@ -226,26 +232,43 @@ def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) 
             found.append((find_feature_heights(h, g, elongation=e), flipped))
         except FitFailure as failure:
             failures.append((failure, flipped))
+    foot_down = _foot_end(girth, elongation)  # True: the profile's bottom; False: its top; None: not told
+    if foot_down is not None:
+        upright = [f for f in found if f[1] != foot_down]
+        if upright:
+            return upright[0]
+        if found:  # only upside down: the refusal of the leg read foot down
+            raise next(failure for failure, flipped in failures if flipped != foot_down)
     if found:
         return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
-    # report the failure of the more plausible orientation: the foot's end down (a foot
-    # is at the bottom of a leg; its sections are elongated, MAX_CALF_ELONGATION); with
+    # report the failure of the more plausible orientation: the foot's end down; with
     # no end told by a foot, a foot found one way outranks a missing ankle the other way
     # (the foot read as a calf upside down; a missing knee found an ankle and a calf,
     # and stays); else the knee end thicker
     measured = girth[np.isfinite(girth)]
     tenth = max(len(measured) // 10, 1)
-    stretched = elongation[np.isfinite(elongation)]
-    if stretched.size >= 2 * tenth:
-        foot_low = bool(np.median(stretched[:tenth]) > MAX_CALF_ELONGATION)
-        foot_high = bool(np.median(stretched[-tenth:]) > MAX_CALF_ELONGATION)
-        if foot_low != foot_high:
-            raise failures[0][0] if foot_low else failures[1][0]
+    if foot_down is not None:
+        raise failures[0][0] if foot_down else failures[1][0]
     feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
     if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
         raise feet[0]
     ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
     raise failures[0][0] if ends_up else failures[1][0]
+
+
+def _foot_end(girth: np.ndarray, elongation: np.ndarray) -> bool | None:
+    """Which end of a profile (girth (k,), elongation (k,) of its sections, NaN where
+    unmeasured) holds the foot: True the bottom, False the top, None when neither or both
+    of its measured tenths is elongated as a foot's sections are (median elongation over
+    MAX_CALF_ELONGATION)."""
+    measured = girth[np.isfinite(girth)]
+    tenth = max(len(measured) // 10, 1)
+    stretched = elongation[np.isfinite(elongation)]
+    if stretched.size < 2 * tenth:
+        return None
+    foot_low = bool(np.median(stretched[:tenth]) > MAX_CALF_ELONGATION)
+    foot_high = bool(np.median(stretched[-tenth:]) > MAX_CALF_ELONGATION)
+    return foot_low if foot_low != foot_high else None
 
 
 def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
@@ -375,7 +398,7 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
-        feats = find_feature_heights(heights, girth, hint, sections.elongations())
+        feats = find_feature_heights(heights, girth, hint, sections.elongations(), feats.on_foot)
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
@@ -424,6 +447,11 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
                                  run_points, run_faces, run_samples, run_weights, run.half_spaces)
             except FitFailure as failure:
                 run_failures.append(failure)
+                continue
+            if isinstance(straight_failure, CalfWithoutBulge) and not placed.feats.on_foot:
+                # the straight leg stood on its foot without a calf bulge: a run with no
+                # ankle on a foot is a thigh over its knee waist, read as a calf over an
+                # ankle (benchmarks/swollen.py), not the shank of a bent knee
                 continue
             points, faces, half_spaces = run_points, run_faces, run.half_spaces
             break

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from scipy.interpolate import PchipInterpolator
 
-from app.geometry.anatomy.landmarks import MAX_CALF_ELONGATION, find_feature_heights
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION
+from app.geometry.anatomy.landmarks import find_feature_heights
+from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 
 
 def _calf_with_a_flank_bump(top_mm: float) -> tuple[np.ndarray, np.ndarray]:
@@ -110,3 +111,49 @@ def test_a_bump_of_the_heel_does_not_hide_a_scan_ending_inside_the_calf():
         find_feature_heights(z, girth, elongation=elongation)
     assert caught.value.reason is FailureReason.NO_KNEE, caught.value.detail
     assert "ends inside the calf" in caught.value.detail
+
+
+def _swollen_leg_profile(ankle_mm: float, calf_mm: float, knee_waist_mm: float) -> tuple[np.ndarray, ...]:
+    """A whole leg's girth every 2 mm from the toes up (mm): the foot (elongated sections,
+    1.5-2.2, up to 70 mm), the ankle's girth ``ankle_mm`` at 110 mm, the calf's greatest
+    ``calf_mm`` at 300 mm, the knee waist ``knee_waist_mm`` at 440 mm and the thigh rising
+    to 560 mm round at 800 mm; with the elongations (a calf's 1.05-1.1)."""
+    z = np.arange(0.0, 800.0, 2.0)
+    knots = np.array([(0, 200), (40, 420), (70, 400), (110, ankle_mm), (300, calf_mm), (440, knee_waist_mm),
+                      (800, 560)], dtype=float)
+    girth = PchipInterpolator(knots[:, 0], knots[:, 1])(z)
+    elongation = np.interp(z, [0, 40, 70, 100, 800], [2.2, 1.8, 1.5, 1.1, 1.05])
+    return z, girth, elongation
+
+
+def test_a_swollen_lower_leg_without_a_calf_bulge_is_refused_for_it():
+    """A swollen (oedematous) leg: the ankle 345 mm round, the calf 370 (C/B 1.07), the
+    knee waist 350.  No calf bulges over this ankle (MIN_CALF_RATIO), and the knee waist,
+    330 mm above the foot with no narrower leg below it, is no ankle for the thigh above
+    it to be a calf over (MAX_ANKLE_ABOVE_FOOT_MM): read so, the thigh was measured as a
+    calf.  The refusal says the leg has no calf bulge and that a tape measures it - not
+    "a foot" or "the scan ends inside the calf", which ask for a scan that cannot help."""
+    z, girth, elongation = _swollen_leg_profile(345.0, 370.0, 350.0)
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z, girth, elongation=elongation)
+    assert isinstance(caught.value, CalfWithoutBulge) and caught.value.reason is FailureReason.NO_CALF
+    assert "no calf bulge" in caught.value.detail and "by tape" in caught.value.detail, caught.value.detail
+
+
+def test_a_swollen_ankle_wider_than_the_knee_waist_is_still_the_ankle_on_its_foot():
+    """The ankle swollen to 330 mm, the calf 410 (C/B 1.24: it still bulges), the knee
+    waist 320, narrower than the ankle.  The knee waist's being thicker than the ankle
+    (MIN_KNEE_RATIO) is what tells the two ends apart when nothing else does; here the
+    foot under the ankle does, and the landmarks are found where they are.  Without the
+    foot the same profile is refused (no knee thicker than the ankle), as before."""
+    z, girth, elongation = _swollen_leg_profile(330.0, 410.0, 320.0)
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert abs(found.b_mm - 110.0) < 15.0 and abs(found.c_mm - 300.0) < 15.0 and abs(found.d_mm - 440.0) < 15.0
+    assert found.on_foot
+    calf = z >= 100.0
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z[calf], girth[calf], elongation=elongation[calf])
+    assert caught.value.reason is FailureReason.NO_KNEE
+    # a profile of the same leg cut to its calf, once its ankle was found on the foot
+    again = find_feature_heights(z[calf], girth[calf], elongation=elongation[calf], on_foot=True)
+    assert abs(again.d_mm - 440.0) < 15.0
