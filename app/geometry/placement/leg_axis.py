@@ -5,10 +5,10 @@ scan by :mod:`app.geometry.placement.place` - and returns a :class:`CalfAxis`, i
 
 1. a first axis: area-weighted PCA of the leg's surface, then the line through the
    centroids of its compact (round, leg-like) slabs, which a flat foot does not drag
-   (:func:`_first_axis`);
+   (:func:`app.geometry.placement.first_axis.first_axis`);
 2. the coarse circumference profile along it (:func:`_profile`: 36 rays every 3 mm),
    B, C, D found on it (:func:`app.geometry.anatomy.landmarks.find_feature_heights`), both ends
-   tried when the scan's up is unknown (:func:`_either_way`);
+   tried when the scan's up is unknown, the foot's end down (:mod:`app.geometry.placement.leg_ends`);
 3. the shank's long axis - the line through the section centroids from B to 85% of the
    way to D (:func:`_section_centre_line`) - adopted and the landmarks found again along
    it (:func:`_refine`);
@@ -23,30 +23,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION, FeatureHeights
+from app.geometry.anatomy.calf_candidates import FeatureHeights
 from app.geometry.anatomy.landmark_refusals import failure_stage
 from app.geometry.anatomy.landmarks import find_feature_heights
-from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, FootFound
+from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import partial_view
+from app.geometry.placement.first_axis import AXIS_TOLERANCE_DEG, first_axis, pca_samples
 from app.geometry.placement.knee_bend import keep_index, shank_runs
+from app.geometry.placement.leg_ends import landmarks_either_way, mirror_profile
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
 #: a lower leg (ankle to knee, 250+ mm; with a flat foot about 1.4 x its foot length)
 #: is longer than it is wide; a ball or a box is not
 MIN_ASPECT = 1.2
-#: slabs of the surface whose spread is rounder than this (major/minor axis) are leg-like;
-#: a 55 x 40 mm ellipse is 1.4, a footprint 2.5 or more
-COMPACT_RATIO = 1.6
-SLAB_MM = 5.0
-PCA_SAMPLES = 30_000
-CENTROID_LINE_ITERATIONS = 4
 #: spacing of the coarse profile used to find B, C, D along the whole leg, mm
 COARSE_SPACING_MM = 2.0
 #: spacing of the first profile over the whole scan (before the calf is known), mm
 FIRST_SPACING_MM = 3.0
-#: the calf axis is re-estimated by PCA until it moves less than this, degrees
-AXIS_TOLERANCE_DEG = 0.5
 MAX_AXIS_ITERATIONS = 2
 #: an axis update smaller than this (degrees) keeps the landmarks without re-slicing: a
 #: 2 degree tilt moves a plane by +-1.7 mm across a 50 mm radius and its girth by 0.06%
@@ -153,124 +147,6 @@ def _profile(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[float, 
     return heights, girth, sections
 
 
-def _mirror(heights: np.ndarray, girth: np.ndarray, sections: PolarSections):
-    """The same profile seen from the other end: z -> -z, x -> -x, y kept (a rotation
-    by 180 degrees about y), so that nothing has to be sliced again."""
-    n = len(sections.angles_rad)
-    rays = (n // 2 - np.arange(n)) % n  # theta -> pi - theta
-    mirrored = PolarSections(
-        -heights[::-1],
-        sections.centroids_mm[::-1] * np.array([-1.0, 1.0]),
-        sections.radii_mm[::-1][:, rays],
-        sections.angles_rad,
-        sections.coverage[::-1],
-        None if sections.largest_gap_deg is None else sections.largest_gap_deg[::-1],
-        None if sections.gap_middle_rad is None else (np.pi - sections.gap_middle_rad[::-1]) % (2.0 * np.pi),
-    )
-    return -heights[::-1], girth[::-1], mirrored
-
-
-def _pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Area-weighted surface samples, thinned by a fixed stride of floor(n / 30,000) (so
-    30k-60k of a large scan; the principal axes of 30k samples of a leg agree with all
-    of them to ~0.1 degree)."""
-    samples, weights = cf.surface_samples(points, faces)
-    stride = max(len(samples) // PCA_SAMPLES, 1)
-    return samples[::stride], None if weights is None else weights[::stride]
-
-
-def _centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray | None:
-    """Direction (3,), in the samples' frame, of the line through the centroids of the
-    compact slabs of the surface.
-
-    The surface samples are binned into :data:`SLAB_MM` slabs along z; each slab's
-    weighted centroid and 2x2 covariance are accumulated with bincount.  A slab counts
-    as leg-like when its spread is nearly round (sqrt of the eigenvalue ratio below
-    :data:`COMPACT_RATIO`): a shin is, a footprint is not.  Returns None when fewer
-    than 10 slabs qualify.
-    """
-    w = np.ones(len(local_samples)) if weights is None else weights
-    z = local_samples[:, 2]
-    slab = np.floor((z - z.min()) / SLAB_MM).astype(np.int64)
-    n = int(slab.max()) + 1
-    total = np.bincount(slab, weights=w, minlength=n)
-    keep = total > 0
-    moments = {}
-    x, y = local_samples[:, 0], local_samples[:, 1]
-    for name, values in (("x", x), ("y", y), ("xx", x * x), ("yy", y * y), ("xy", x * y), ("z", z)):
-        moments[name] = np.bincount(slab, weights=w * values, minlength=n)[keep] / total[keep]
-    cxx = moments["xx"] - moments["x"] ** 2
-    cyy = moments["yy"] - moments["y"] ** 2
-    cxy = moments["xy"] - moments["x"] * moments["y"]
-    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy**2
-    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
-    small, large = half_trace - root, half_trace + root
-    compact = (small > 0) & (large < COMPACT_RATIO**2 * np.maximum(small, 1e-12))
-    if compact.sum() < 10:
-        return None
-    centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
-    direction = cf.principal_axis(centres, total[keep][compact])
-    return direction if direction[2] > 0 else -direction
-
-
-def _either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.ndarray) -> tuple[FeatureHeights, bool]:
-    """Landmarks with the scan's axis as it is or reversed; (features, reversed?).
-
-    A foot is at the bottom of a leg: where one end of the scan holds a foot (its tenth of
-    the sections is elongated, MAX_CALF_ELONGATION) and the other does not, the landmarks
-    are read with that end down, and read the other way they are refused (a swollen
-    lower leg whose ankle is wider than its knee waist reads as a calf upside down, the
-    knee waist as its ankle: benchmarks/swollen.py).  Otherwise, when both orientations
-    give landmarks (possible once landmarks may lie at the scan's edge), the one with
-    fewer landmarks at the edge wins, then the one whose knee end is thicker relative to
-    the ankle (anatomy: D/B is 1.4-1.7, its inverse below 1).
-    """
-    found, failures = [], []
-    for flipped in (False, True):
-        h, g, e = (-heights[::-1], girth[::-1], elongation[::-1]) if flipped else (heights, girth, elongation)
-        try:
-            found.append((find_feature_heights(h, g, elongation=e), flipped))
-        except FitFailure as failure:
-            failures.append((failure, flipped))
-    foot_down = _foot_end(girth, elongation)  # True: the profile's bottom; False: its top; None: not told
-    if foot_down is not None:
-        upright = [f for f in found if f[1] != foot_down]
-        if upright:
-            return upright[0]
-        if found:  # only upside down: the refusal of the leg read foot down
-            raise next(failure for failure, flipped in failures if flipped != foot_down)
-    if found:
-        return min(found, key=lambda f: (f[0].b_at_scan_edge + f[0].d_at_scan_edge, -f[0].girth_d_mm / f[0].girth_b_mm))
-    # report the failure of the more plausible orientation: the foot's end down; with
-    # no end told by a foot, a foot found one way outranks a missing ankle the other way
-    # (the foot read as a calf upside down; a missing knee found an ankle and a calf,
-    # and stays); else the knee end thicker
-    measured = girth[np.isfinite(girth)]
-    tenth = max(len(measured) // 10, 1)
-    if foot_down is not None:
-        raise failures[0][0] if foot_down else failures[1][0]
-    feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
-    if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
-        raise feet[0]
-    ends_up = bool(measured[-tenth:].mean() >= measured[:tenth].mean()) if measured.size else True
-    raise failures[0][0] if ends_up else failures[1][0]
-
-
-def _foot_end(girth: np.ndarray, elongation: np.ndarray) -> bool | None:
-    """Which end of a profile (girth (k,), elongation (k,) of its sections, NaN where
-    unmeasured) holds the foot: True the bottom, False the top, None when neither or both
-    of its measured tenths is elongated as a foot's sections are (median elongation over
-    MAX_CALF_ELONGATION)."""
-    measured = girth[np.isfinite(girth)]
-    tenth = max(len(measured) // 10, 1)
-    stretched = elongation[np.isfinite(elongation)]
-    if stretched.size < 2 * tenth:
-        return None
-    foot_low = bool(np.median(stretched[:tenth]) > MAX_CALF_ELONGATION)
-    foot_high = bool(np.median(stretched[-tenth:]) > MAX_CALF_ELONGATION)
-    return foot_low if foot_low != foot_high else None
-
-
 def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
     """Which end of the profile along ``axis`` a bent knee's cut lies at: +1 top, -1
     bottom, 0 no cut (the first half-space passes through the knee)."""
@@ -291,36 +167,13 @@ def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
     if up is not None:
         feats = find_feature_heights(heights, girth, elongation=sections.elongations())
     else:
-        feats, flipped = _either_way(heights, girth, sections.elongations())
+        feats, flipped = landmarks_either_way(heights, girth, sections.elongations())
         if flipped:  # the scan's axis pointed towards the foot
             axis = -axis
             basis = cf.perpendicular_basis(axis, basis[1])
             local = (points - centre) @ basis.T
-            heights, girth, sections = _mirror(heights, girth, sections)
+            heights, girth, sections = mirror_profile(heights, girth, sections)
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
-
-
-def _first_axis(samples, weights, shape_axes, up):
-    axis = shape_axes[2]
-    if up is not None and axis @ up < 0:
-        axis = -axis
-    centre = samples.mean(axis=0)
-    basis = cf.perpendicular_basis(axis, shape_axes[1])
-    # a flat foot drags the PCA axis; the line through the centroids of the compact
-    # (leg-like, not footprint-like) slabs of the surface does not
-    for _ in range(CENTROID_LINE_ITERATIONS):
-        line = _centroid_line_axis((samples - centre) @ basis.T, weights)
-        if line is None:
-            break
-        new_axis = basis.T @ line
-        if new_axis @ axis < 0:
-            new_axis = -new_axis
-        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
-        axis = new_axis
-        basis = cf.perpendicular_basis(axis, basis[1])
-        if moved < AXIS_TOLERANCE_DEG:
-            break
-    return axis, basis
 
 
 def _section_centre_line(heights: np.ndarray, girth: np.ndarray, sections: PolarSections,
@@ -416,7 +269,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
     points (n, 3) scan mm of one leg, faces (f, 3) or None; ``up`` (3,) the feet-to-head
     direction when known (a leg cut from a body).  Raises FitFailure with the reason.
     """
-    samples, weights = _pca_samples(points, faces)
+    samples, weights = pca_samples(points, faces)
     shape_axes = cf.principal_frame(samples, weights)
     extents = np.ptp(samples @ shape_axes.T, axis=0)
     if up is None and extents[2] < MIN_ASPECT * extents[:2].max():
@@ -425,7 +278,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             f"the scan is {extents[2]:.0f} mm long and {extents[:2].max():.0f} mm wide: "
             f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
         )
-    axis, basis = _first_axis(samples, weights, shape_axes, up)
+    axis, basis = first_axis(samples, weights, shape_axes, up)
     if faces is None:
         # a cloud is sliced along this axis and then along axes a few degrees from it:
         # sorted along it once, each slicing's sort is a pass over nearly sorted data

@@ -1,0 +1,93 @@
+"""A leg's first axis, before any landmark is known (paper section 2.1, step 1 of
+:mod:`app.geometry.placement.leg_axis`): area-weighted PCA of the leg's surface, then
+the line through the centroids of its compact (round, leg-like) slabs, which a flat foot
+does not drag.  Units: mm.  Arrays: samples (n, 3) in the leg's frame, weights (n,).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from app.geometry.placement import calf_frame as cf
+
+#: slabs of the surface whose spread is rounder than this (major/minor axis) are leg-like;
+#: a 55 x 40 mm ellipse is 1.4, a footprint 2.5 or more
+COMPACT_RATIO = 1.6
+SLAB_MM = 5.0
+PCA_SAMPLES = 30_000
+CENTROID_LINE_ITERATIONS = 4
+#: an axis is taken as found when an iteration moves it less than this, degrees (the
+#: calf axis's re-estimation, leg_axis._refine, stops by the same tolerance)
+AXIS_TOLERANCE_DEG = 0.5
+
+
+def pca_samples(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Area-weighted surface samples, thinned by a fixed stride of floor(n / 30,000) (so
+    30k-60k of a large scan; the principal axes of 30k samples of a leg agree with all
+    of them to ~0.1 degree)."""
+    samples, weights = cf.surface_samples(points, faces)
+    stride = max(len(samples) // PCA_SAMPLES, 1)
+    return samples[::stride], None if weights is None else weights[::stride]
+
+
+def centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray | None:
+    """Direction (3,), in the samples' frame, of the line through the centroids of the
+    compact slabs of the surface.
+
+    The surface samples are binned into :data:`SLAB_MM` slabs along z; each slab's
+    weighted centroid and 2x2 covariance are accumulated with bincount.  A slab counts
+    as leg-like when its spread is nearly round (sqrt of the eigenvalue ratio below
+    :data:`COMPACT_RATIO`): a shin is, a footprint is not.  Returns None when fewer
+    than 10 slabs qualify.
+    """
+    w = np.ones(len(local_samples)) if weights is None else weights
+    z = local_samples[:, 2]
+    slab = np.floor((z - z.min()) / SLAB_MM).astype(np.int64)
+    n = int(slab.max()) + 1
+    total = np.bincount(slab, weights=w, minlength=n)
+    keep = total > 0
+    moments = {}
+    x, y = local_samples[:, 0], local_samples[:, 1]
+    for name, values in (("x", x), ("y", y), ("xx", x * x), ("yy", y * y), ("xy", x * y), ("z", z)):
+        moments[name] = np.bincount(slab, weights=w * values, minlength=n)[keep] / total[keep]
+    cxx = moments["xx"] - moments["x"] ** 2
+    cyy = moments["yy"] - moments["y"] ** 2
+    cxy = moments["xy"] - moments["x"] * moments["y"]
+    half_trace, det = (cxx + cyy) / 2, cxx * cyy - cxy**2
+    root = np.sqrt(np.maximum(half_trace**2 - det, 0.0))
+    small, large = half_trace - root, half_trace + root
+    compact = (small > 0) & (large < COMPACT_RATIO**2 * np.maximum(small, 1e-12))
+    if compact.sum() < 10:
+        return None
+    centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
+    direction = cf.principal_axis(centres, total[keep][compact])
+    return direction if direction[2] > 0 else -direction
+
+
+def first_axis(samples: np.ndarray, weights: np.ndarray | None, shape_axes: np.ndarray,
+               up: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """(axis (3,), basis (3, 3)) of a leg from its surface ``samples`` (n, 3) and their
+    ``weights`` (n,) or None: the principal axis of ``shape_axes`` (3, 3; rows, the
+    last the longest), turned towards ``up`` (3,) when known, then moved to the line
+    through the compact slabs' centroids (:func:`centroid_line_axis`) at most
+    CENTROID_LINE_ITERATIONS times or until it moves less than AXIS_TOLERANCE_DEG."""
+    axis = shape_axes[2]
+    if up is not None and axis @ up < 0:
+        axis = -axis
+    centre = samples.mean(axis=0)
+    basis = cf.perpendicular_basis(axis, shape_axes[1])
+    # a flat foot drags the PCA axis; the line through the centroids of the compact
+    # (leg-like, not footprint-like) slabs of the surface does not
+    for _ in range(CENTROID_LINE_ITERATIONS):
+        line = centroid_line_axis((samples - centre) @ basis.T, weights)
+        if line is None:
+            break
+        new_axis = basis.T @ line
+        if new_axis @ axis < 0:
+            new_axis = -new_axis
+        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        axis = new_axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        if moved < AXIS_TOLERANCE_DEG:
+            break
+    return axis, basis
