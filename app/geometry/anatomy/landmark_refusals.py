@@ -79,6 +79,6 @@ def calf_without_bulge(detail: str) -> CalfWithoutBulge:
     """A lower leg on its foot without an ankle waist and calf bulge (``detail`` says what
     was measured): what it is, and what to do instead of scanning again."""
     return CalfWithoutBulge(
-        f"{detail}. A lower leg nearly as wide at the ankle as at the calf (oedema, lymphoedema) has no ankle "
-        "waist and calf bulge for the landmarks B, C and D to be found on, and scanning it again will not give "
-        "them: take its measurements by tape at the order form's points.")
+        f"{detail}. A lower leg nearly as wide at the ankle as at the calf (oedema, lymphoedema, a wasted "
+        "calf) has no ankle waist and calf bulge for the landmarks B, C and D to be found on, and scanning it "
+        "again will not give them: take its measurements by tape at the order form's points.")
