@@ -51,12 +51,7 @@ def one_leg_cut(rng: np.random.Generator) -> tuple[bytes, str, str, dict]:
     motion = degrade.rigid_motion(rng)
     if mirror:
         motion = motion @ np.diag([-1.0, 1.0, 1.0, 1.0])
-    if as_cloud:
-        points = trimesh.transform_points(degrade.sample_cloud(mesh, 80_000, rng), motion)
-        data, file_type = trimesh.PointCloud(points).export(file_type="ply"), "ply"
-    else:
-        mesh.apply_transform(motion)
-        data, file_type = mesh.export(file_type="stl"), "stl"
+    data, file_type = degrade.moved_scan_file(mesh, motion, as_cloud, rng)
     cut = ("left" if cut_sign > 0 else "right") if not mirror else ("right" if cut_sign > 0 else "left")
     return data, file_type, cut, {"subject": int(subject["subjectid"]), "cut_above_sole_mm": above_sole,
                                   "cloud": as_cloud, "mirrored": mirror}

@@ -31,7 +31,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -70,12 +69,7 @@ def swollen_case(rng: np.random.Generator) -> tuple[bytes, str, str, dict, dict]
     truth = measure_truth(mesh, ankle, knee)
     as_cloud = bool(rng.random() < 0.4)
     motion = degrade.rigid_motion(rng)
-    if as_cloud:
-        points = trimesh.transform_points(degrade.sample_cloud(mesh, 80_000, rng), motion)
-        data, file_type = trimesh.PointCloud(points).export(file_type="ply"), "ply"
-    else:
-        mesh.apply_transform(motion)
-        data, file_type = mesh.export(file_type="stl"), "stl"
+    data, file_type = degrade.moved_scan_file(mesh, motion, as_cloud, rng)
     side = "left" if sign > 0 else "right"
     # (the subject's index and the leg's seed rebuild the leg: tests/geometry/test_placement.py)
     notes = {"subject": int(subjects[subject_index]["subjectid"]), "subject_index": subject_index, "leg_seed": leg_seed,

@@ -90,6 +90,18 @@ def sample_cloud(mesh: trimesh.Trimesh, count: int, rng: np.random.Generator) ->
     return np.asarray(points)
 
 
+def moved_scan_file(mesh: trimesh.Trimesh, motion: np.ndarray, as_cloud: bool, rng: np.random.Generator,
+                    cloud_points: int = 80_000) -> tuple[bytes, str]:
+    """The scan file of ``mesh`` moved by ``motion`` (4, 4): a binary STL, or with
+    ``as_cloud`` a PLY of ``cloud_points`` points drawn from its surface (the mesh is left
+    as it was only for a cloud: a mesh is moved in place)."""
+    if as_cloud:
+        points = trimesh.transform_points(sample_cloud(mesh, cloud_points, rng), motion)
+        return trimesh.PointCloud(points).export(file_type="ply"), "ply"
+    mesh.apply_transform(motion)
+    return mesh.export(file_type="stl"), "stl"
+
+
 def cloud_noise(points: np.ndarray, sigma_mm: float, rng: np.random.Generator) -> np.ndarray:
     """Isotropic Gaussian noise of ``sigma_mm`` per coordinate."""
     return points + rng.normal(0.0, sigma_mm, size=points.shape)
