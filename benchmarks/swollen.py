@@ -1,7 +1,7 @@
 """Swollen (oedematous, lymphoedematous) lower legs: measured right, or refused saying why.
 
 Run:  .venv/bin/python benchmarks/swollen.py [CASES] [SEED]   (default 40 19)
-Writes benchmarks/results/swollen.md and swollen.json.
+Writes benchmarks/results/swollen.md and swollen.json (swollen-seedSEED.* for another seed).
 
 Compression stockings are made for legs that swell, and a swollen leg loses the shape
 the landmarks are found on: the swelling is greatest at the foot and ankle and fades up
@@ -14,11 +14,11 @@ as a mesh or (40%) an 80k-point cloud, and checked and fitted as an upload is.  
 is measured on the swollen mesh as the corpus measures every leg
 (benchmarks/corpus/truth.py: B the least girth below the calf's greatest, C, D).
 
-A right answer: where the leg still bulges (truth C/B at least
-app.geometry.anatomy.landmarks.MIN_CALF_RATIO + BAND), a fit whose cB, cC and cD lie
-within TOLERANCE_MM of the truth; where it does not (below MIN_CALF_RATIO - BAND), the
-refusal that says so (no_calf, "no calf bulge" or "no ankle waist above the foot"); in
-between, either.  Wrong: a fit with a girth further off (a swollen ankle read as the knee
+A right answer: where the leg still bulges over its ankle (truth C/B at least
+app.geometry.anatomy.calf_candidates.MIN_CALF_RATIO_ON_FOOT + BAND: an ankle standing on
+its foot), a fit whose cB, cC and cD lie within TOLERANCE_MM of the truth; where it does
+not (below MIN_CALF_RATIO_ON_FOOT - BAND), the refusal that says so (no_calf, "no calf
+bulge" or "no ankle waist above the foot"); in between, either.  Wrong: a fit with a girth further off (a swollen ankle read as the knee
 waist, the leg upside down; the thigh read as the calf), or another refusal (a foot, a
 scan ending inside the calf, no knee).
 """
@@ -35,7 +35,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.anatomy.calf_candidates import MIN_CALF_RATIO  # noqa: E402
+from app.geometry.anatomy.calf_candidates import MIN_CALF_RATIO_ON_FOOT  # noqa: E402
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
@@ -47,7 +47,7 @@ from benchmarks.corpus.truth import measure_truth  # noqa: E402
 RESULTS = ROOT / "benchmarks" / "results"
 SWELLING_MM = (0.0, 25.0)
 REACH = (0.5, 0.95)
-#: truth C/B this close to MIN_CALF_RATIO may be fitted or refused (a tape reads 1%)
+#: truth C/B this close to MIN_CALF_RATIO_ON_FOOT may be fitted or refused (a tape reads 1%)
 BAND = 0.03
 #: girths of a right fit: within a tape's reading of B and C (2 mm, the robustness
 #: benchmark's) and of D (4 mm)
@@ -82,9 +82,9 @@ def judge(truth: dict, outcome: dict) -> str:
     ratio = truth["C"] / truth["B"]
     if outcome["outcome"] == "fit":
         close = all(abs(outcome["girths"][k] - truth[k]) <= TOLERANCE_MM[k] for k in TOLERANCE_MM)
-        return "right" if close and ratio >= MIN_CALF_RATIO - BAND else "wrong"
+        return "right" if close and ratio >= MIN_CALF_RATIO_ON_FOOT - BAND else "wrong"
     said = outcome["outcome"] == "no_calf" and any(words in outcome["detail"] for words in BULGE_REFUSALS)
-    return "right" if said and ratio < MIN_CALF_RATIO + BAND else "wrong"
+    return "right" if said and ratio < MIN_CALF_RATIO_ON_FOOT + BAND else "wrong"
 
 
 def run_case(data: bytes, file_type: str, side: str) -> dict:
@@ -116,16 +116,18 @@ def main(cases: int = 40, seed: int = 19) -> dict:
 
 def write(summary: dict) -> None:
     rows = summary["rows"]
-    bands = (("bulging (C/B >= %.2f)" % (MIN_CALF_RATIO + BAND), lambda r: r >= MIN_CALF_RATIO + BAND),
-             ("borderline", lambda r: MIN_CALF_RATIO - BAND <= r < MIN_CALF_RATIO + BAND),
-             ("no bulge (C/B < %.2f)" % (MIN_CALF_RATIO - BAND), lambda r: r < MIN_CALF_RATIO - BAND))
+    low, high = MIN_CALF_RATIO_ON_FOOT - BAND, MIN_CALF_RATIO_ON_FOOT + BAND
+    bands = (("C/B >= 1.20 (a calf as ANSUR II's least)", lambda r: r >= 1.2),
+             (f"bulging less ({high:.2f} <= C/B < 1.20)", lambda r: high <= r < 1.2),
+             ("borderline", lambda r: low <= r < high),
+             (f"no bulge (C/B < {low:.2f})", lambda r: r < low))
     lines = [
         f"# Swollen lower legs (benchmarks/swollen.py {summary['cases']} {summary['seed']})", "",
         f"{summary['cases']} generated legs with their feet, swollen {SWELLING_MM[0]:g}-{SWELLING_MM[1]:g} mm over the "
         f"foot and ankle, fading to none {REACH[0]:g}-{REACH[1]:g} of the way to the knee; meshes and 80k-point clouds; "
         f"{summary['seconds']:.0f} s.  Right: a fit with cB, cC within 2 mm and cD within 4 mm of the swollen mesh's, "
-        f"where the calf still bulges (truth C/B >= {MIN_CALF_RATIO - BAND:.2f}); the refusal that says the leg has "
-        f"no calf bulge, where it does not (C/B < {MIN_CALF_RATIO + BAND:.2f}).", "",
+        f"where the calf still bulges (truth C/B >= {MIN_CALF_RATIO_ON_FOOT - BAND:.2f}); the refusal that says the leg "
+        f"has no calf bulge, where it does not (C/B < {MIN_CALF_RATIO_ON_FOOT + BAND:.2f}).", "",
         "| truth | cases | outcomes | right | fitted: girth error B / C / D, max mm |",
         "|---|---|---|---|---|",
     ]
@@ -149,8 +151,9 @@ def write(summary: dict) -> None:
                      f"{r['reach']:.2f}, {'cloud' if r['cloud'] else 'mesh'}), C/B {r['ratio']:.2f}: "
                      f"{r['outcome']}: {said}")
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "swollen.md").write_text("\n".join(lines) + "\n")
-    (RESULTS / "swollen.json").write_text(json.dumps(summary, indent=1))
+    stem = "swollen" if summary["seed"] == 19 else f"swollen-seed{summary['seed']}"  # held-out seeds apart
+    (RESULTS / f"{stem}.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / f"{stem}.json").write_text(json.dumps(summary, indent=1))
 
 
 if __name__ == "__main__":

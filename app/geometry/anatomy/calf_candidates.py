@@ -30,6 +30,12 @@ INTERIOR_MARGIN_MM = 6.0
 #: (about 1.1).  And the knee-end ratio D/B.
 MIN_CALF_RATIO = 1.20
 MIN_KNEE_RATIO = 1.05
+#: ... where the ankle stands on its foot (MAX_ANKLE_ABOVE_FOOT_MM), the knee bulge
+#: cannot pass for the calf - its knee waist lies a shank above the foot - and the calf
+#: need only bulge as much as its crown can be read: 5% over the ankle (15 mm on a 300
+#: mm ankle, 7 times a tape's resolution).  A swollen leg (oedema, lymphoedema) keeps
+#: its landmarks down to C/B 1.05, the calf's crown flat and its height warned about
+MIN_CALF_RATIO_ON_FOOT = 1.05
 #: D, the narrowest part of the leg below the knee, may be read wider than C, the calf's
 #: widest, only where the girth levels off above C and D is the bottom of its window: on
 #: the real legs and the 218 generated cases of benchmarks/robustness.py the accepted
@@ -197,9 +203,10 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
             f"{MAX_ANKLE_ABOVE_FOOT_MM:.0f} mm above it) the leg is nowhere narrower, so that girth is a knee waist "
             "and the bulge above it the thigh"
         )
-    if g[ic] < MIN_CALF_RATIO * g[ib]:
+    least = MIN_CALF_RATIO_ON_FOOT if above_foot is not None or profile.on_foot else MIN_CALF_RATIO
+    if g[ic] < least * g[ib]:
         bulge = (f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
-                 f"{MIN_CALF_RATIO:.2f} x the ankle girth ({g[ib]:.0f} mm)")
+                 f"{least:.2f} x the ankle girth ({g[ib]:.0f} mm)")
         if above_foot is not None:  # an ankle on its foot: the leg itself does not bulge
             return calf_without_bulge(f"{bulge}, {above_foot:.0f} mm above the foot")
         return no_calf(bulge)

@@ -7,9 +7,10 @@ derivative C'(h) between B and C.  Three midway layers make the 7 feature layers
 Robustness additions (documented, not in the paper): the profile is Gaussian-smoothed
 (sigma 4 mm) before extrema are taken; B and D must be *interior* minima (the girth
 must rise again beyond them inside the scan, otherwise the ankle or the knee is not in
-the scanned range); the calf must bulge (C >= 1.2 B) and the knee end must be thicker
-than the ankle (D >= 1.05 B).  The last rule also tells the ankle end from the knee end
-when the scan's up direction is unknown.
+the scanned range); the calf must bulge (C >= 1.2 B; 1.05 B over an ankle standing on
+its foot) and the knee end must be thicker than the ankle (D >= 1.05 B, unless the foot
+under the ankle tells the ends apart).  The last rule also tells the ankle end from the
+knee end when the scan's up direction is unknown.
 
 Where a calf candidate's B and D lie, or why it has none, is
 :mod:`app.geometry.anatomy.calf_candidates`; how a waist's vertex, a waist at the scan's
@@ -36,6 +37,7 @@ from app.geometry.anatomy.calf_candidates import (
     INTERIOR_MARGIN_MM,
     KNEE_ABOVE_CALF_MM,
     MIN_CALF_RATIO,
+    MIN_CALF_RATIO_ON_FOOT,
     FeatureHeights,
     GirthProfile,
     calf_candidates,
@@ -109,7 +111,8 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     bottom, top = heights[ok][0], heights[ok][-1]
     spacing = float(np.median(np.diff(heights)))
     inner = g[(heights >= bottom + 20.0) & (heights <= top - 20.0)]
-    if inner.size and inner.max() < MIN_CALF_RATIO * inner.min():
+    # (a profile of a leg whose ankle stood on its foot, cut to its calf, may bulge less)
+    if inner.size and inner.max() < (MIN_CALF_RATIO_ON_FOOT if on_foot else MIN_CALF_RATIO) * inner.min():
         raise FitFailure(
             FailureReason.NOT_A_LEG,
             f"the girth varies only from {inner.min():.0f} to {inner.max():.0f} mm along the scan: "

@@ -313,6 +313,10 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             # knee): a reading that found the ankle and the calf but no knee names what is
             # really missing better than one that found no ankle - a foot read as the
             # calf, upside down, finds no ankle above it.  Ties: the straight axis's.
+            # A straight leg that stood on its foot without a calf bulge is that leg: what
+            # a bent knee's runs miss, cut off its foot, tells less
+            if isinstance(straight_failure, CalfWithoutBulge):
+                raise straight_failure
             raise max(run_failures, key=failure_stage)
 
     centre, local, heights, sections = placed.centre, placed.local, placed.heights, placed.sections

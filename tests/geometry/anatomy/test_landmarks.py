@@ -127,17 +127,34 @@ def _swollen_leg_profile(ankle_mm: float, calf_mm: float, knee_waist_mm: float) 
 
 
 def test_a_swollen_lower_leg_without_a_calf_bulge_is_refused_for_it():
-    """A swollen (oedematous) leg: the ankle 345 mm round, the calf 370 (C/B 1.07), the
-    knee waist 350.  No calf bulges over this ankle (MIN_CALF_RATIO), and the knee waist,
-    330 mm above the foot with no narrower leg below it, is no ankle for the thigh above
-    it to be a calf over (MAX_ANKLE_ABOVE_FOOT_MM): read so, the thigh was measured as a
-    calf.  The refusal says the leg has no calf bulge and that a tape measures it - not
-    "a foot" or "the scan ends inside the calf", which ask for a scan that cannot help."""
-    z, girth, elongation = _swollen_leg_profile(345.0, 370.0, 350.0)
+    """A swollen (lymphoedematous) leg: the ankle 362 mm round, the calf 370 (C/B 1.02),
+    the knee waist 350.  No calf bulges over this ankle even by MIN_CALF_RATIO_ON_FOOT,
+    and the knee waist, 330 mm above the foot with no narrower leg below it, is no ankle
+    for the thigh above it to be a calf over (MAX_ANKLE_ABOVE_FOOT_MM): read so, the thigh
+    was measured as a calf.  The refusal says the leg has no calf bulge and that a tape
+    measures it - not "a foot" or "the scan ends inside the calf", which ask for a scan
+    that cannot help."""
+    z, girth, elongation = _swollen_leg_profile(362.0, 370.0, 350.0)
     with pytest.raises(FitFailure) as caught:
         find_feature_heights(z, girth, elongation=elongation)
     assert isinstance(caught.value, CalfWithoutBulge) and caught.value.reason is FailureReason.NO_CALF
     assert "no calf bulge" in caught.value.detail and "by tape" in caught.value.detail, caught.value.detail
+
+
+def test_a_swollen_calf_bulging_less_than_any_healthy_one_is_measured_on_its_foot():
+    """The ankle swollen to 345 mm, the calf 380 (C/B 1.10, under ANSUR II's least, 1.40,
+    and under MIN_CALF_RATIO), the knee waist 350.  Its ankle stands on its foot, so the
+    knee's bulge cannot pass for the calf, and the calf need only bulge by
+    MIN_CALF_RATIO_ON_FOOT: B, C and D are found where they are.  Cut to the calf, the same
+    profile is refused, as before, unless an earlier profile found its ankle on the foot."""
+    z, girth, elongation = _swollen_leg_profile(345.0, 380.0, 350.0)
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert abs(found.b_mm - 110.0) < 15.0 and abs(found.c_mm - 300.0) < 20.0 and abs(found.d_mm - 440.0) < 15.0
+    calf = z >= 100.0
+    with pytest.raises(FitFailure):
+        find_feature_heights(z[calf], girth[calf], elongation=elongation[calf])
+    again = find_feature_heights(z[calf], girth[calf], elongation=elongation[calf], on_foot=True)
+    assert abs(again.c_mm - 300.0) < 20.0 and abs(again.d_mm - 440.0) < 15.0
 
 
 def test_a_swollen_ankle_wider_than_the_knee_waist_is_still_the_ankle_on_its_foot():
