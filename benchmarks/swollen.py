@@ -16,7 +16,8 @@ is measured on the swollen mesh as the corpus measures every leg
 
 A right answer: where the leg still bulges over its ankle (truth C/B at least
 app.geometry.anatomy.calf_candidates.MIN_CALF_RATIO_ON_FOOT + BAND: an ankle standing on
-its foot), a fit whose cB, cC and cD lie within TOLERANCE_MM of the truth; where it does
+its foot), a fit whose cB, cC and cD lie within TOLERANCE_MM of the truth (cD further
+off where the record warns that cD should be checked by tape); where it does
 not (below MIN_CALF_RATIO_ON_FOOT - BAND), the refusal that says so (no_calf, "no calf
 bulge" or "no ankle waist above the foot"); in between, either.  Wrong: a fit with a girth further off (a swollen ankle read as the knee
 waist, the leg upside down; the thigh read as the calf), or another refusal (a foot, a
@@ -81,7 +82,11 @@ def judge(truth: dict, outcome: dict) -> str:
     """"right" or "wrong" (module docstring)."""
     ratio = truth["C"] / truth["B"]
     if outcome["outcome"] == "fit":
-        close = all(abs(outcome["girths"][k] - truth[k]) <= TOLERANCE_MM[k] for k in TOLERANCE_MM)
+        # (cD further off counts when the record says to check it by tape: a calf bulging
+        # less than 1.2 times over the ankle is warned about so)
+        warned_d = any("cD by tape" in w for w in outcome["warnings"])
+        close = all(abs(outcome["girths"][k] - truth[k]) <= TOLERANCE_MM[k] or (k == "D" and warned_d)
+                    for k in TOLERANCE_MM)
         return "right" if close and ratio >= MIN_CALF_RATIO_ON_FOOT - BAND else "wrong"
     said = outcome["outcome"] == "no_calf" and any(words in outcome["detail"] for words in BULGE_REFUSALS)
     return "right" if said and ratio < MIN_CALF_RATIO_ON_FOOT + BAND else "wrong"

@@ -205,6 +205,8 @@ def test_a_swollen_ankle_as_wide_as_the_calf_is_read_foot_down(right_leg_of_subj
     for name, tolerance in (("B", 2.0), ("C", 2.0), ("D", 4.0)):
         assert abs(fit.landmarks.tape_girths_mm[name] - truth.girths_mm[name]) < tolerance, name
     assert not any("looks like a left foot" in w for w in fit.warnings)
+    # a calf bulging less than any healthy one is said, and cD to be checked by tape
+    assert any("the calf bulges only 1.09 times" in w and "cD by tape" in w for w in fit.warnings), fit.warnings
 
 
 def test_a_swollen_leg_is_not_measured_on_its_thigh_as_a_bent_knees_run():

@@ -17,6 +17,7 @@ import time
 
 import numpy as np
 
+from app.geometry.anatomy.calf_candidates import MIN_CALF_RATIO
 from app.geometry.anatomy.feature_layers import (
     B1_TAPE_REACH_MM,
     B1_TAPE_STEP_MM,
@@ -330,6 +331,15 @@ def fit_calf(
                 f"{name}'s height is uncertain by about {tolerance:.0f} mm: the girth stays within a tape's reading "
                 f"of {name}'s over that length, so {name}'s girth is sure but its height (and the lengths and layers "
                 "measured from it) is not")
+    tapes = landmarks.tape_girths_mm or {}
+    if tapes.get("B") and tapes.get("C") and tapes["C"] < MIN_CALF_RATIO * tapes["B"]:
+        # measured only because its ankle stands on its foot (calf_candidates.MIN_CALF_RATIO_ON_FOOT):
+        # on such legs (benchmarks/swollen.py 40 19) cD read up to 4.2 mm off the leg's own
+        fit_warnings.append(
+            f"the calf bulges only {tapes['C'] / tapes['B']:.2f} times over the ankle (a healthy calf 1.4-2.3 times, "
+            "ANSUR II): a swollen or wasted lower leg, measured because its ankle stands on its foot; B, C and D lie "
+            "on a nearly flat girth profile and cD may read up to 4-5 mm off a tape held at the knee waist - check "
+            "cD by tape")
     bridged = bridged_arc_warning(arcs)
     if bridged is not None:
         fit_warnings.append(bridged)
