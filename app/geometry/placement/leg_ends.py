@@ -65,10 +65,10 @@ def landmarks_either_way(heights: np.ndarray, girth: np.ndarray, elongation: np.
     # no end told by a foot, a foot found one way outranks a missing ankle the other way
     # (the foot read as a calf upside down; a missing knee found an ankle and a calf,
     # and stays); else the knee end thicker
-    measured = girth[np.isfinite(girth)]
-    tenth = max(len(measured) // 10, 1)
     if foot_down is not None:
         raise failures[0][0] if foot_down else failures[1][0]
+    measured = girth[np.isfinite(girth)]
+    tenth = max(len(measured) // 10, 1)
     feet = [failure for failure, _ in failures if isinstance(failure, FootFound)]
     if feet and all(failure_stage(failure) <= failure_stage(feet[0]) for failure, _ in failures):
         raise feet[0]
