@@ -159,14 +159,19 @@ def test_two_unmerged_passes_of_one_leg_are_one_leg_measured_once_and_said(tmp_p
 # --- swollen legs ---------------------------------------------------------------------
 
 
-@pytest.fixture(scope="module")
-def right_leg_of_subject_137():
-    """A generated adult's right leg with its foot (ANSUR II subject index 137's
-    MakeHuman leg, mm) and its ankle and knee joints."""
+def _right_leg(subject_index: int, leg_seed: int):
+    """A generated adult's right leg with its foot (ANSUR II subject ``subject_index``'s
+    MakeHuman leg drawn from ``leg_seed``, mm, as benchmarks/swollen.py draws it) and its
+    ankle and knee joints."""
     from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
 
-    legs = sized_legs(ansur_subjects()[137], np.random.default_rng(137), subdivisions=2)
+    legs = sized_legs(ansur_subjects()[subject_index], np.random.default_rng(leg_seed), subdivisions=2)
     return leg_submesh(legs.vertices, legs.faces, -1.0), legs.joints["r-ankle"], legs.joints["r-knee"]
+
+
+@pytest.fixture(scope="module")
+def right_leg_of_subject_137():
+    return _right_leg(137, 137)
 
 
 def _swollen_scan(leg, swelling_mm: float, reach: float):
@@ -217,11 +222,7 @@ def test_a_swollen_leg_is_not_measured_on_its_thigh_as_a_bent_knees_run():
     over the leg's.  A run whose ankle stands on no foot is not taken after the straight
     leg stood on its own; here the straight leg is measured, its calf bulging over an
     ankle on its foot."""
-    from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
-
-    legs = sized_legs(ansur_subjects()[2629], np.random.default_rng(1816406312), subdivisions=2)
-    leg = (leg_submesh(legs.vertices, legs.faces, -1.0), legs.joints["r-ankle"], legs.joints["r-knee"])
-    scan, truth = _swollen_scan(leg, 23.068, 0.8669)
+    scan, truth = _swollen_scan(_right_leg(2629, 1816406312), 23.068, 0.8669)
     fit = fit_scan(scan, FitOptions(side="right"))
     for name, tolerance in (("B", 2.0), ("C", 2.0), ("D", 4.0)):
         assert abs(fit.landmarks.tape_girths_mm[name] - truth.girths_mm[name]) < tolerance, name
@@ -231,11 +232,7 @@ def test_a_swollen_leg_without_a_calf_bulge_is_refused_saying_so():
     """Swollen 24 mm, fading 0.67 of the way up (benchmarks/swollen.py 40 19, case 22:
     subject index 1406's right leg): the calf is no wider than the ankle (C/B 1.00).  The
     refusal says the leg has no calf bulge and that a tape measures it."""
-    from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
-
-    legs = sized_legs(ansur_subjects()[1406], np.random.default_rng(1677656626), subdivisions=2)
-    leg = (leg_submesh(legs.vertices, legs.faces, -1.0), legs.joints["r-ankle"], legs.joints["r-knee"])
-    scan, truth = _swollen_scan(leg, 24.174, 0.6661)
+    scan, truth = _swollen_scan(_right_leg(1406, 1677656626), 24.174, 0.6661)
     assert truth.girths_mm["C"] < 1.02 * truth.girths_mm["B"]
     with pytest.raises(FitFailure) as caught:
         check_scan(scan, FitOptions(side="right"))

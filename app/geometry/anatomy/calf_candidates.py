@@ -203,7 +203,10 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
             f"{MAX_ANKLE_ABOVE_FOOT_MM:.0f} mm above it) the leg is nowhere narrower, so that girth is a knee waist "
             "and the bulge above it the thigh"
         )
-    least = MIN_CALF_RATIO_ON_FOOT if above_foot is not None or profile.on_foot else MIN_CALF_RATIO
+    # the ankle stands on its foot (here, or on an earlier profile of the leg): the foot,
+    # not the knee waist's width, tells the ends apart, and the calf need bulge less
+    on_foot = above_foot is not None or profile.on_foot
+    least = MIN_CALF_RATIO_ON_FOOT if on_foot else MIN_CALF_RATIO
     if g[ic] < least * g[ib]:
         bulge = (f"no calf bulge: the largest girth above the ankle ({g[ic]:.0f} mm) is less than "
                  f"{least:.2f} x the ankle girth ({g[ib]:.0f} mm)")
@@ -234,7 +237,6 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
     # the knee waist is thicker than the ankle (D >= MIN_KNEE_RATIO x B), which tells the
     # knee's end from the ankle's where nothing else does; an ankle on its foot is told by
     # the foot, and a swollen ankle may be wider than its knee waist
-    on_foot = above_foot is not None or profile.on_foot
     if not on_foot and g[id_] < MIN_KNEE_RATIO * g[ib]:
         return FitFailure(
             FailureReason.NO_KNEE,
