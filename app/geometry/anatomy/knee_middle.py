@@ -12,6 +12,18 @@ crosses that bound (:func:`run_between_crossings`). ANSUR II puts the mid-patell
 456 mm above the floor, E lands 50 mm above D, where the ANSUR proportions of a 1.8 m
 man put the mid-patella.
 
+The window's top is the thigh's, not the knee's, where the girth's rise slows there to
+as little as anywhere in the window after peaking in between (the slope at the window's
+top within KNEE_LEVEL_SLOPE of the least, and the peak more than that above it): the
+steepest rise above D is where the knee ends and the thigh's muscles widen the leg, and
+above it the thigh levels off - a stretch a tape there would read as a thigh's girth, not
+the knee's.  The window is then cut at that peak (:func:`knee_window`).  On a real knee
+the thigh rises again above its crown (the five real legs of tests/data: the slope at
+the window's top 0.98-1.38 mm/mm over a crown of -0.02-0.51), so its window stays whole;
+on generated MakeHuman knees, which have no crown, the two ends of the window rose
+nearly alike (0.82 and 0.83 mm/mm) and a re-scan put E at the other end, 110 mm away
+(benchmarks/chart_accuracy.py 8 13, legs 1 and 3).
+
 E's uncertainty: E read again with the level stretch's bound half and one and a half
 times as wide (KNEE_LEVEL_SLOPE_JUDGED), or half the least-rising stretch where the knee
 has no crown, or as far as another stretch of the window whose slope is as near the
@@ -86,6 +98,21 @@ def girth_slope(heights: np.ndarray, girth: np.ndarray) -> np.ndarray:
     return slope
 
 
+def knee_window(slope: np.ndarray, window: np.ndarray) -> np.ndarray:
+    """The heights (k,) of ``window`` (k,) that can hold the knee's level stretch, given
+    the girth's ``slope`` (k,, mm per mm): ``window`` cut below the steepest rise of the
+    girth where the thigh levels off above it as little as anywhere below (module
+    docstring); else ``window`` itself."""
+    inside = np.flatnonzero(window)
+    top = int(inside[-1])
+    peak = int(inside[np.argmax(slope[inside])])
+    thigh_levels_off = (slope[top] <= slope[inside].min() + KNEE_LEVEL_SLOPE
+                        and slope[peak] > slope[top] + KNEE_LEVEL_SLOPE and peak > int(inside[0]))
+    if not thigh_levels_off:
+        return window
+    return window & (np.arange(len(window)) < peak)
+
+
 def _local_girth_slope(girth: np.ndarray) -> np.ndarray:
     """d girth / d height (k,) of girths (k,) every STEP_MM: the slope of the
     least-squares line through the girths within +-SLOPE_HALF_MM (a Savitzky-Golay first
@@ -128,6 +155,9 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
     # the level stretch: the run of heights round the least slope whose slope stays within
     # KNEE_LEVEL_SLOPE of it; E is its middle (the least slope alone wanders along a flat
     # stretch with a scanner's noise), as C is the middle of the calf's crown
+    cut = knee_window(slope, window)
+    cut_below = (" (where the thigh's steeper rise begins)," if cut.sum() < window.sum() else ",")
+    window = cut
     inside = np.flatnonzero(window)
     least = int(inside[np.argmin(slope[inside])])
     level = run_between_crossings(heights, slope, window, least, slope[least] + KNEE_LEVEL_SLOPE)
@@ -171,8 +201,8 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
         why = (f"the knee's girth rises as little {rival_at:.0f} mm above D as at E, {e_mm - heights[0]:.0f} mm above "
                "D, so E (cE, lE) may lie at either or between" if rival_mm >= moved_mm > 0 else
                f"the knee shows no level crown: its girth rises at least {slope[least]:.1f} mm per mm of height "
-               f"from {KNEE_WINDOW_MM[0]:.0f} to {KNEE_WINDOW_MM[1]:.0f} mm above D, so E (cE, lE) is the middle "
-               f"of its least-rising stretch" if crownless else
+               f"from {heights[inside[0]] - heights[0]:.0f} to {heights[inside[-1]] - heights[0]:.0f} mm above D"
+               f"{cut_below} so E (cE, lE) is the middle of its least-rising stretch" if crownless else
                "the knee's level stretch has no sharp ends (its girth's slope leaves the level slowly), so E (cE, lE), "
                "its middle, moves with where the stretch is taken to end")
         warnings = (f"{why}, uncertain by about {moved_mm:.0f} mm of height and {moved_girth:.0f} mm of cE; "

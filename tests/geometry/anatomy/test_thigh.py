@@ -260,31 +260,57 @@ def test_f_inherits_the_height_uncertainty_of_a_knee_whose_girth_stays_level():
     assert found.mid_thigh.uncertainty_mm is not None and found.mid_thigh.uncertainty_mm > 20.0
 
 
-def _girth_rising_least_at_both_ends(z: np.ndarray) -> np.ndarray:
+def _knee_rising_least_at_both_ends(peak_rise: float, top_slope: float = 0.66):
     """Radius (mm) at z mm above D of a knee whose girth rises 0.665 mm per mm at D + 20,
-    up to 1.27 halfway and down to 0.66 at D + 150 (a generated leg's knee, whose least
-    slope E's rule found at either end on two scans of it), then 0.66 on."""
+    by about ``peak_rise`` more halfway and ``top_slope`` at D + 150 (a generated leg's
+    knee, whose least slope E's rule found at either end on two scans of it), then
+    ``top_slope`` on."""
     fine = np.arange(0.0, 600.0, 0.25)
     t = np.clip((fine - 20.0) / 130.0, 0.0, 1.0)
-    slope = np.where((fine >= 20.0) & (fine <= 150.0), 0.665 + 0.6 * np.sin(np.pi * t) - 0.005 * t,
-                     np.where(fine < 20.0, 0.665, 0.66))
+    slope = np.where((fine >= 20.0) & (fine <= 150.0), 0.665 + peak_rise * np.sin(np.pi * t) + (top_slope - 0.665) * t,
+                     np.where(fine < 20.0, 0.665, top_slope))
     girth = 370.0 + np.concatenate([[0.0], np.cumsum(0.5 * (slope[1:] + slope[:-1]) * 0.25)])
-    return np.interp(z, fine, girth) / (2 * np.pi)
+
+    def radius(z: np.ndarray) -> np.ndarray:
+        return np.interp(z, fine, girth) / (2 * np.pi)
+
+    return radius
 
 
 def test_a_knee_rising_as_little_at_both_ends_of_its_window_says_e_may_lie_at_either():
-    """The least slope at one end and as little at the other: E is read at one of them,
-    and its stated uncertainty reaches the other (there cE would read over 80 mm less or
-    more); one warning says both heights."""
-    found = thigh_measures(_leg(radius=_girth_rising_least_at_both_ends), None, D, knee_bent=False)
+    """The least slope at one end and nearly as little at the other (0.665 and 0.76 mm/mm),
+    the rise between them peaking less than the level band above the top's (0.89): E is
+    read at one of them, and its stated uncertainty reaches the other (there cE would
+    read over 60 mm less or more); one warning says both heights."""
+    knee = _knee_rising_least_at_both_ends(0.18, top_slope=0.76)
+    found = thigh_measures(_leg(radius=knee), None, D, knee_bent=False)
     warning = next(w for w in found.warnings if "rises as little" in w)
     assert "may lie at either" in warning
     e_above_d = found.knee.height_mm - D
     other = 20.0 if e_above_d > 85.0 else 150.0
     assert abs(float(re.search(r"rises as little (\d+) mm above D", warning).group(1)) - other) <= 3.0
-    at_other = 2 * np.pi * _girth_rising_least_at_both_ends(np.array([other]))[0]
+    at_other = 2 * np.pi * knee(np.array([other]))[0]
     assert found.knee.uncertainty_mm >= abs(at_other - found.knee.girth_mm) - 1.0
     assert found.knee.uncertainty_mm > 60.0
+
+
+def test_a_thigh_levelling_off_above_its_steepest_rise_is_not_the_knee():
+    """The same two ends, the girth's rise peaking 0.6 mm/mm above them in between (the
+    knee giving way to the thigh; benchmarks/chart_accuracy.py 8 13's legs 1 and 3 read E
+    110 mm apart on two scans): the window's top is the thigh's, so E is the lower
+    stretch's middle on every reading, and the top is no rival."""
+    knee = _knee_rising_least_at_both_ends(0.6)
+    rng = np.random.default_rng(5)
+    heights = []
+    for noise in (0.0, 0.3, 0.3, 0.3):
+        cloud = _leg(radius=knee)
+        cloud = cloud + rng.normal(0.0, noise, cloud.shape) if noise else cloud
+        found = thigh_measures(cloud, None, D, knee_bent=False)
+        assert not any("rises as little" in w for w in found.warnings)
+        heights.append(found.knee.height_mm - D)
+        assert 20.0 <= heights[-1] <= 40.0
+        assert found.knee.girth_mm == pytest.approx(2 * np.pi * knee(np.array([heights[-1]]))[0], abs=1.5)
+    assert max(heights) - min(heights) < 6.0
 
 
 def test_a_fold_lost_in_a_sparse_clouds_noise_is_not_placed():
