@@ -70,6 +70,16 @@ FOOT_RATIO = 1.3
 #: above the foot, with no narrower leg between (NARROWER_BELOW), is a knee waist over a
 #: lower leg as wide as it - a swollen leg (benchmarks/swollen.py)
 MAX_ANKLE_ABOVE_FOOT_MM = 150.0
+#: ... and a foot is told by its shape: a section more elongated than a calf's
+#: (MAX_CALF_ELONGATION, the heel and instep) lies at most this far below the foot's
+#: first section (FOOT_RATIO or elongated), mm.  Measured 0-15 mm on the five real legs,
+#: 120 corpus scans of seed 7 and 60 swollen legs of benchmarks/swollen.py 60 23 whose
+#: ankle stands on a foot; below a knee waist read upside down the thigh is as wide as a
+#: foot (FOOT_RATIO) but round (elongation 1.02-1.06), and the nearest elongated section
+#: (the hip's cut) lay 204 mm below its first such section on the body's leg where this
+#: was found: read so, it was measured cB 333 mm at the knee waist and cD 242 at the
+#: ankle (benchmarks/chart_accuracy.py 8 7, leg 7's body vertices)
+FOOT_SHAPE_REACH_MM = 50.0
 
 #: peaks whose girths between them stay within this share of each other are one crown
 #: (a dip between peaks, a rise between shoulders); a bulge that falls by more has a waist
@@ -192,8 +202,15 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
             f"the minimum below the bulge at {g[ic]:.0f} mm girth ({g[ib]:.0f} mm) is not the ankle: "
             f"the leg below it is narrower ({g[lower].min():.0f} mm)"
         )
-    # how far above the foot's first section this "ankle" lies (None: no foot below it)
-    above_foot = float(heights[ib] - heights[down[foot[0]]]) if foot.size else None
+    # how far above the foot's first section this "ankle" lies (None: no foot below it).
+    # A foot is told by its shape, not its girth alone: the foot's elongated sections (the
+    # heel and instep) begin within FOOT_SHAPE_REACH_MM below its first wide section.  A
+    # knee waist read upside down has the thigh below it, as wide but round
+    foot_mm = float(heights[down[foot[0]]]) if foot.size else None
+    if foot_mm is not None and not (ok & profile.footlike & (heights <= foot_mm)
+                                    & (heights >= foot_mm - FOOT_SHAPE_REACH_MM)).any():
+        foot_mm = None
+    above_foot = None if foot_mm is None else float(heights[ib]) - foot_mm
     if above_foot is not None and above_foot > MAX_ANKLE_ABOVE_FOOT_MM:
         # no narrower leg between it and a foot far below: the knee waist over a swollen
         # lower leg, the thigh above it taken for a calf

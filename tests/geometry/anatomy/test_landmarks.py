@@ -113,14 +113,17 @@ def test_a_bump_of_the_heel_does_not_hide_a_scan_ending_inside_the_calf():
     assert "ends inside the calf" in caught.value.detail
 
 
-def _swollen_leg_profile(ankle_mm: float, calf_mm: float, knee_waist_mm: float) -> tuple[np.ndarray, ...]:
+def _swollen_leg_profile(ankle_mm: float, calf_mm: float, knee_waist_mm: float,
+                         lower_thigh_mm: float | None = None) -> tuple[np.ndarray, ...]:
     """A whole leg's girth every 2 mm from the toes up (mm): the foot (elongated sections,
     1.5-2.2, up to 70 mm), the ankle's girth ``ankle_mm`` at 110 mm, the calf's greatest
     ``calf_mm`` at 300 mm, the knee waist ``knee_waist_mm`` at 440 mm and the thigh rising
-    to 560 mm round at 800 mm; with the elongations (a calf's 1.05-1.1)."""
+    (through ``lower_thigh_mm`` at 560 mm when given) to 560 mm round at 800 mm; with the
+    elongations (a calf's 1.05-1.1)."""
     z = np.arange(0.0, 800.0, 2.0)
+    thigh = [] if lower_thigh_mm is None else [(560, lower_thigh_mm)]
     knots = np.array([(0, 200), (40, 420), (70, 400), (110, ankle_mm), (300, calf_mm), (440, knee_waist_mm),
-                      (800, 560)], dtype=float)
+                      *thigh, (800, 560)], dtype=float)
     girth = PchipInterpolator(knots[:, 0], knots[:, 1])(z)
     elongation = np.interp(z, [0, 40, 70, 100, 800], [2.2, 1.8, 1.5, 1.1, 1.05])
     return z, girth, elongation
@@ -174,3 +177,20 @@ def test_a_swollen_ankle_wider_than_the_knee_waist_is_still_the_ankle_on_its_foo
     # a profile of the same leg cut to its calf, once its ankle was found on the foot
     again = find_feature_heights(z[calf], girth[calf], elongation=elongation[calf], on_foot=True)
     assert abs(again.d_mm - 440.0) < 15.0
+
+
+def test_a_knee_waist_over_the_thigh_is_no_ankle_on_its_foot():
+    """A healthy leg read upside down, the thigh below the knee waist: the thigh is as
+    wide as a foot (over FOOT_RATIO times the knee waist within MAX_ANKLE_ABOVE_FOOT_MM)
+    but round, so the knee waist does not stand on a foot, and the knee-end rule refuses
+    the reading (its "D", the ankle, is narrower than its "B"; the refusal reported is
+    the foot at the top, read as a calf).  Read so, a body's leg
+    was measured cB 333 mm at the knee waist and cD 242 at the ankle
+    (benchmarks/chart_accuracy.py 8 7, leg 7's body vertices).  Read foot down, the same
+    leg stands on its foot."""
+    # the thigh 1.35 times the knee waist 120 mm above it (the body's: 1.3 times 105 mm above)
+    z, girth, elongation = _swollen_leg_profile(230.0, 380.0, 330.0, lower_thigh_mm=445.0)
+    with pytest.raises(FitFailure):
+        find_feature_heights(-z[::-1], girth[::-1], elongation=elongation[::-1])
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert found.on_foot and abs(found.b_mm - 110.0) < 15.0 and abs(found.d_mm - 440.0) < 15.0
