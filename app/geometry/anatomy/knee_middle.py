@@ -43,7 +43,7 @@ import numpy as np
 from scipy.interpolate import make_lsq_spline
 
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_between, read_across_tape
-from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_between_crossings
+from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_around, run_between_crossings
 from app.geometry.sections import PolarSections
 
 #: the knee's level stretch is searched this far above D, mm
@@ -100,15 +100,24 @@ def girth_slope(heights: np.ndarray, girth: np.ndarray) -> np.ndarray:
 
 def knee_window(slope: np.ndarray, window: np.ndarray) -> np.ndarray:
     """The heights (k,) of ``window`` (k,) that can hold the knee's level stretch, given
-    the girth's ``slope`` (k,, mm per mm): ``window`` cut below the steepest rise of the
-    girth where the thigh levels off above it as little as anywhere below (module
-    docstring); else ``window`` itself."""
+    the girth's ``slope`` (k,, mm per mm): ``window`` cut below the thigh's steepest rise
+    where the thigh levels off above it as little as anywhere below (module docstring);
+    else ``window`` itself.  The thigh's rise is the last run of heights whose slope
+    exceeds the top's by KNEE_LEVEL_SLOPE: a knee whose condyles rise steeply below its
+    crown keeps the crown."""
     inside = np.flatnonzero(window)
     top = int(inside[-1])
-    peak = int(inside[np.argmax(slope[inside])])
-    thigh_levels_off = (slope[top] <= slope[inside].min() + KNEE_LEVEL_SLOPE
-                        and slope[peak] > slope[top] + KNEE_LEVEL_SLOPE and peak > int(inside[0]))
-    if not thigh_levels_off:
+    if slope[top] > slope[inside].min() + KNEE_LEVEL_SLOPE:  # the thigh still rises at the top
+        return window
+    # the thigh's rise: the last run of the window rising more than the band over its top
+    # (not the steepest of all: a knee's condyles may rise more steeply below its crown)
+    rising = window & (slope > slope[top] + KNEE_LEVEL_SLOPE)
+    if not rising.any():
+        return window
+    last = int(np.flatnonzero(rising)[-1])
+    first, _ = run_around(rising, last)
+    peak = first + int(np.argmax(slope[first:last + 1]))
+    if peak <= int(inside[0]):
         return window
     return window & (np.arange(len(window)) < peak)
 

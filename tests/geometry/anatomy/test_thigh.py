@@ -356,3 +356,21 @@ def test_a_scanners_ghosts_behind_the_buttock_at_the_scans_cut_are_no_skin():
         assert found.reason is None
         assert found.height_mm == pytest.approx(clean.height_mm, abs=0.5)
         assert found.girth_mm == pytest.approx(clean.girth_mm, abs=0.5)
+
+
+def test_a_crowned_knee_whose_condyles_rise_steeper_than_its_thigh_keeps_its_crown():
+    """The girth's slope 0.9 mm/mm over the condyles 25 mm above D, 0.2 at the crown (70),
+    0.8 up the thigh (120) and 0.3 where the thigh levels off (150): the top is as level
+    as the crown, but the thigh's rise below it is the last, not the condyles' steeper
+    one, so the window keeps the crown and E is at it."""
+    from scipy.interpolate import PchipInterpolator
+
+    fine = np.arange(0.0, 600.0, 0.25)
+    slope = PchipInterpolator([0.0, 25.0, 70.0, 120.0, 150.0, 600.0], [0.5, 0.9, 0.2, 0.8, 0.3, 0.3])(fine)
+    girth = 360.0 + np.concatenate([[0.0], np.cumsum(0.5 * (slope[1:] + slope[:-1]) * 0.25)])
+
+    def radius(z: np.ndarray) -> np.ndarray:
+        return np.interp(z, fine, girth) / (2 * np.pi)
+
+    found = thigh_measures(_leg(radius=radius), None, D, knee_bent=False)
+    assert abs(found.knee.height_mm - D - 70.0) < 8.0
