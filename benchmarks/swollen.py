@@ -36,7 +36,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from app.geometry.anatomy.calf_candidates import MIN_CALF_RATIO_ON_FOOT  # noqa: E402
+from app.geometry.anatomy.calf_candidates import MIN_CALF_RATIO, MIN_CALF_RATIO_ON_FOOT  # noqa: E402
 from app.geometry.errors import FitFailure  # noqa: E402
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
@@ -122,8 +122,8 @@ def main(cases: int = 40, seed: int = 19) -> dict:
 def write(summary: dict) -> None:
     rows = summary["rows"]
     low, high = MIN_CALF_RATIO_ON_FOOT - BAND, MIN_CALF_RATIO_ON_FOOT + BAND
-    bands = (("C/B >= 1.20 (a calf as ANSUR II's least)", lambda r: r >= 1.2),
-             (f"bulging less ({high:.2f} <= C/B < 1.20)", lambda r: high <= r < 1.2),
+    bands = ((f"C/B >= {MIN_CALF_RATIO:.2f} (a calf as ANSUR II's least)", lambda r: r >= MIN_CALF_RATIO),
+             (f"bulging less ({high:.2f} <= C/B < {MIN_CALF_RATIO:.2f})", lambda r: high <= r < MIN_CALF_RATIO),
              ("borderline", lambda r: low <= r < high),
              (f"no bulge (C/B < {low:.2f})", lambda r: r < low))
     lines = [

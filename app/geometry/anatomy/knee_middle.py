@@ -14,10 +14,11 @@ man put the mid-patella.
 
 The window's top is the thigh's, not the knee's, where the girth's rise slows there to
 as little as anywhere in the window after peaking in between (the slope at the window's
-top within KNEE_LEVEL_SLOPE of the least, and the peak more than that above it): the
-steepest rise above D is where the knee ends and the thigh's muscles widen the leg, and
-above it the thigh levels off - a stretch a tape there would read as a thigh's girth, not
-the knee's.  The window is then cut at that peak (:func:`knee_window`).  On a real knee
+top within KNEE_LEVEL_SLOPE of the least, and the thigh's rise more than that above it):
+the thigh's rise (the last stretch of the window rising more than that over the top) is
+where the knee ends and the thigh's muscles widen the leg, and above it the thigh levels
+off - a stretch a tape there would read as a thigh's girth, not the knee's.  The window
+is then cut at the steepest point of that rise (:func:`knee_window`).  On a real knee
 the thigh rises again above its crown (the five real legs of tests/data: the slope at
 the window's top 0.98-1.38 mm/mm over a crown of -0.02-0.51), so its window stays whole;
 on generated MakeHuman knees, which have no crown, the two ends of the window rose
