@@ -15,7 +15,7 @@ import numpy as np
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled, run_around, run_between_crossings
 from app.geometry.anatomy.skin_points import Skin
 from app.geometry.scan.sampling import grouped_weighted_quantiles
-from app.geometry.sections import mesh_section_segments, round_edge_crossings
+from app.geometry.sections import LimbGraph, mesh_section_segments, round_edge_crossings
 
 #: the gluteal fold: the smallest bend of the posterior profile that counts (a drop of its
 #: slope dy/dz), the buttock's rearmost point at least this far under the scan's top, and
@@ -194,9 +194,9 @@ def _plane_profile(heights: np.ndarray, plane: np.ndarray, xy: np.ndarray) -> np
 
 
 def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
-                      edges: np.ndarray | None = None) -> np.ndarray:
+                      edges: LimbGraph | None = None) -> np.ndarray:
     """The back of the leg at each height (k,), evenly spaced by STEP_MM (a sparse cloud's
-    read on its neighbour graph ``edges`` (e, 2), the heights ascending): a low percentile
+    read on its neighbour graph ``edges``, a LimbGraph, the heights ascending): a low percentile
     (REAR_PERCENTILE) of the y of the section's points rather than their minimum, which a
     scanner's noise drags back by its largest excursion; then averaged over
     +-PROFILE_SMOOTH_MM.  NaN where there is nothing.  mm.
@@ -223,7 +223,11 @@ def posterior_profile(points: np.ndarray, faces: np.ndarray | None, heights: np.
         # bands of points put G 146 mm down the thigh at a noise spike, unwarned, on one
         # held-out leg (benchmarks/chart_accuracy.py 8 5, leg 7) and no G on two others;
         # on the graph 14 of 16 such scans (seeds 11 and 5) read G, lG within 5.2 mm
-        return _plane_profile(heights, *round_edge_crossings(points, edges, heights))
+        # - its mutual graph's alone (LimbGraph.mutual): read with the edges along the
+        # limb too, on their bend or their chords, the back's profile moved lG by more
+        # than 1 mm (up to 3.1) on 9 of the 85 body-vertex and sparse lower-leg re-scans
+        # of chart_accuracy 8 3 to 8 13; read on the mutual graph, on 2 (up to 2.3)
+        return _plane_profile(heights, *round_edge_crossings(points, edges.mutual, heights))
     reach = int(round(CLOUD_PROFILE_HALF_MM / STEP_MM))
     # only the points within reach of a height (the foot's and shank's are not the thigh's)
     points = points[(points[:, 2] >= heights[0] - (reach + 0.5) * STEP_MM)

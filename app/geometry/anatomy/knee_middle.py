@@ -45,7 +45,7 @@ from scipy.interpolate import make_lsq_spline
 
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_between, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, run_around, run_between_crossings
-from app.geometry.sections import PolarSections
+from app.geometry.sections import LimbGraph, PolarSections
 
 #: the knee's level stretch is searched this far above D, mm
 KNEE_WINDOW_MM = (20.0, 150.0)
@@ -157,7 +157,7 @@ class KneeMiddle:
 
 def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, knee_sections: PolarSections,
                        girth: np.ndarray, slope: np.ndarray, window: np.ndarray,
-                       edges: np.ndarray | None = None) -> KneeMiddle:
+                       edges: LimbGraph | None = None) -> KneeMiddle:
     """E (module docstring) on ``heights`` (k,) every STEP_MM from D, whose prefix
     ``knee_sections`` are, with their tape ``girth`` (k,; NaN above them), its ``slope``
     (k,) and the ``window`` (k,) E is searched in; ``edges`` a sparse cloud's neighbour

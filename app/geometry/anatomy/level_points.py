@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.sections import PolarSections, tape_band_girths
+from app.geometry.sections import LimbGraph, PolarSections, tape_band_girths
 
 #: a made-to-measure order's girths are held to this (mm): a point whose height is
 #: uncertain by more than this much of its girth is said to be
@@ -64,7 +64,7 @@ def girth_spread(heights: np.ndarray, girths: np.ndarray, at_mm: float, half_mm:
 
 
 def read_across_tape(levels: tuple[LevelPoint, ...], points: np.ndarray, faces: np.ndarray | None,
-                     edges: np.ndarray | None = None) -> tuple[LevelPoint, ...]:
+                     edges: np.ndarray | LimbGraph | None = None) -> tuple[LevelPoint, ...]:
     """Each point's girth read across a tape's width (the median over the planes
     app.geometry.sections.TAPE_BAND_OFFSETS_MM about its height, as B, B1, C, D are:
     one plane spoiled by a scanner's noise or a hole's edge is outvoted), its height and

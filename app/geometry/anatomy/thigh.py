@@ -39,7 +39,7 @@ from app.geometry.anatomy.gluteal_fold import gluteal_fold, posterior_profile
 from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle_of_the_knee
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
-from app.geometry.sections import PolarSections, tape_sections
+from app.geometry.sections import LimbGraph, PolarSections, tape_sections
 
 #: the stored thigh profile's spacing, mm (a knitting specification's usual step)
 PROFILE_STEP_MM = 5.0
@@ -95,7 +95,7 @@ def _thigh_tilt_deg(heights: np.ndarray, sections: PolarSections, d_mm: float) -
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,
-                   edges: np.ndarray | None = None) -> ThighMeasures:
+                   edges: LimbGraph | None = None) -> ThighMeasures:
     """E, F, G of the module docstring (mm), or why not; ``edges``: a sparse cloud's
     neighbour graph, its girths read where the edges cross the tape's planes
     (app.geometry.sections.tape_sections)."""

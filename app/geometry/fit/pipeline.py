@@ -51,7 +51,7 @@ from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, o
 from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 from app.geometry.scan.skin_layers import skin_layers
-from app.geometry.sections import TAPE_BAND_OFFSETS_MM, slice_polar, tape_band_girths, tape_girths
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, LimbGraph, slice_polar, tape_band_girths, tape_girths
 from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import error_statistics
 from app.geometry.spline.lsq import LsqGrid, fit_lsq_surface
@@ -159,7 +159,7 @@ def fit_calf(
     *,
     placement: LegPlacement | None = None,
     n_scan_points: int | None = None,
-    graph: np.ndarray | None = None,
+    graph: LimbGraph | None = None,
 ) -> FitResult:
     """Sections 2.1-2.6 on a scan already in the calf frame, B at z = 0.
 
@@ -201,7 +201,7 @@ def fit_calf(
         if graph is not None:  # the graph's ends renumbered to the sorted points
             renumber = np.empty(len(order), dtype=np.int64)
             renumber[order] = np.arange(len(order))
-            graph = renumber[graph]
+            graph = graph.renumbered(renumber)
     heights = _section_heights(b_mm, d_mm, options)
     cut_at_knee = placement is not None and bool(placement.half_spaces)  # a bent knee's cut opens sections too
 

@@ -18,13 +18,15 @@ import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
 from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges, round_edge_crossings
+from app.geometry.sections.limb_graph import LimbGraph, limb_crossings, limb_graph
 from app.geometry.sections.loop_smoothing import project_on_local_quadratics
 from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "PolarSections", "edge_crossings", "group_median", "largest_gap", "mesh_section_segments",
-           "neighbour_edges", "polygon_centroid", "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar",
-           "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
+__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "edge_crossings", "group_median", "largest_gap",
+           "limb_crossings", "limb_graph", "mesh_section_segments", "neighbour_edges", "polygon_centroid",
+           "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar", "slice_points_polar",
+           "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is
 #: read over the planes TAPE_BAND_OFFSETS_MM from it (mm) and the median taken.  At a
@@ -36,7 +38,7 @@ TAPE_BAND_OFFSETS_MM = np.array([-4.0, -2.0, 0.0, 2.0, 4.0])
 
 
 def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
-                edges: np.ndarray | None = None) -> np.ndarray:
+                edges: np.ndarray | LimbGraph | None = None) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,): the perimeter of the convex hull of the
     section, which is what a tape measure (ANSUR, the hosiery standards) reads, mm
     (:func:`tape_sections`' perimeters); NaN where there is no section."""
@@ -44,7 +46,7 @@ def tape_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarra
 
 
 def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
-                  edges: np.ndarray | None = None) -> PolarSections:
+                  edges: np.ndarray | LimbGraph | None = None) -> PolarSections:
     """The sections a tape is read on at ``heights`` (k,), mm: points (n, 3) in the frame
     whose z the heights are, faces (f, 3) or None; their ``tape_perimeters()`` are the
     tape girths, their centroids where the tape's plane crosses the limb's axis.
@@ -55,8 +57,10 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
     (:func:`app.geometry.sections.cloud_edges.neighbour_edges`: a sparse cloud's, whose
     slabs would be thick), of where the graph's edges cross the plane, and else of the
     slab of points - so scanner noise on the vertices, which the hull of the raw section
-    would pick up at its outermost points, is averaged out.  NaN rows where there is no
-    section.  With ``edges``, the heights ascend.
+    would pick up at its outermost points, is averaged out; a :class:`LimbGraph`'s
+    edges along the limb cross the planes on the skin's bend along it
+    (:func:`app.geometry.sections.limb_graph.limb_crossings`).  NaN rows where there is
+    no section.  With ``edges``, the heights ascend.
     """
     heights = np.asarray(heights, dtype=np.float64)
     if faces is not None and len(faces):
@@ -75,14 +79,17 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
     if edges is not None:
         if np.any(np.diff(heights) < 0):
             raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
-        plane, crossings = round_edge_crossings(points, edges, heights)
+        if isinstance(edges, LimbGraph):
+            plane, crossings = limb_crossings(points, edges, heights)
+        else:
+            plane, crossings = round_edge_crossings(points, edges, heights)
         return slice_points_polar(np.column_stack([crossings, heights[plane]]), heights, 360,
                                   half_thickness=1e-6, widen=False)
     return slice_points_polar(points, heights, 360)
 
 
 def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,
-                     edges: np.ndarray | None = None) -> np.ndarray:
+                     edges: np.ndarray | LimbGraph | None = None) -> np.ndarray:
     """Tape girths (k,) at ``heights`` (k,) read across a tape's width: the median of
     :func:`tape_girths` on the planes :data:`TAPE_BAND_OFFSETS_MM` about each height
     (a plane without a section is left out, and so is its mirror about the height),

@@ -86,19 +86,28 @@ def on_a_streak(points: np.ndarray, nearest: np.ndarray) -> np.ndarray:
     return spread[:, 1] < STREAK_SHARE * spread[:, 2]
 
 
-def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS, tree: cKDTree | None = None) -> np.ndarray:
+def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS, tree: cKDTree | None = None,
+                    drop_streaks: bool = True) -> np.ndarray:
     """(e, 2) int, lower index first: the skin's edges among ``points`` (n, 3) - the pairs
     each among the other's ``neighbours`` nearest (the mutual k-nearest-neighbour graph),
-    neither on a streak (:func:`on_a_streak`), in the graph's components of at least
-    :data:`MIN_SKIN_SHARE` of the points (module docstring); empty for fewer than two
-    points.  ``tree``: a k-d tree over ``points`` already built (a caller asking more of
-    the same points shares it)."""
+    neither on a streak (:func:`on_a_streak`; unless ``drop_streaks`` is False), in the
+    graph's components of at least :data:`MIN_SKIN_SHARE` of the points (module
+    docstring); empty for fewer than two points.  ``tree``: a k-d tree over ``points``
+    already built (a caller asking more of the same points shares it).
+
+    A coarse tessellation's vertices are no scanner's and have no streaks, but its rings
+    can pass for them: where rings lie four times farther apart than their points (a
+    body mesh's lower calf, 28 mm and 7 mm), a point's STREAK_NEIGHBOURS nearest lie on
+    its own ring's arc, spread along it 0.03 as much across (an arc of +-28 mm on a 45 mm
+    radius), and half of such a ring was dropped as streaks (chart_accuracy 8 11, leg 5,
+    body_vertices): a sparse cloud's limb graph is built with ``drop_streaks=False``
+    (app.geometry.fit.sparse_clouds.sparse_cloud_graph)."""
     n = len(points)
     k = min(neighbours, n - 1)
     if k < 1:
         return np.empty((0, 2), dtype=np.int64)
     _, nearest = (tree if tree is not None else cKDTree(points)).query(points, k=max(k, STREAK_NEIGHBOURS) + 1)
-    skin = ~on_a_streak(points, nearest) if n > STREAK_NEIGHBOURS else np.ones(n, dtype=bool)
+    skin = ~on_a_streak(points, nearest) if drop_streaks and n > STREAK_NEIGHBOURS else np.ones(n, dtype=bool)
     near, far = np.repeat(np.arange(n), k), nearest[:, 1 : k + 1].ravel()  # a point is its own nearest
     off_streaks = skin[near] & skin[far]
     near, far = near[off_streaks], far[off_streaks]
@@ -110,25 +119,27 @@ def neighbour_edges(points: np.ndarray, neighbours: int = NEIGHBOURS, tree: cKDT
     return np.column_stack([mutual.row[kept], mutual.col[kept]]).astype(np.int64)
 
 
-def _crossing_ends(points: np.ndarray, edges: np.ndarray, heights: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def crossing_ends(points: np.ndarray, edges: np.ndarray, heights: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The plane (s,) of each crossing of an edge with ``z = heights`` (k,, ascending),
-    the edge's ends (s, 3) each and how far along it the plane lies, t (s,)."""
+    the edge crossing it (s,), its ends (s, 3) each and how far from the first to the
+    second the plane lies, t (s,)."""
     z = points[:, 2]
     level = np.searchsorted(heights, z, side="right")
     first, second = level[edges[:, 0]], level[edges[:, 1]]
     crossing = np.flatnonzero(first != second)
     lo, hi = np.minimum(first, second)[crossing], np.maximum(first, second)[crossing]
     pair_edge, plane = plane_pairs(lo.astype(np.int64), hi.astype(np.int64))
-    a, b = points[edges[crossing[pair_edge], 0]], points[edges[crossing[pair_edge], 1]]
-    return plane, a, b, (heights[plane] - a[:, 2]) / (b[:, 2] - a[:, 2])
+    edge = crossing[pair_edge]
+    a, b = points[edges[edge, 0]], points[edges[edge, 1]]
+    return plane, edge, a, b, (heights[plane] - a[:, 2]) / (b[:, 2] - a[:, 2])
 
 
 def edge_crossings(points: np.ndarray, edges: np.ndarray, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Where the edges (e, 2) of ``points`` (n, 3) cross the planes ``z = heights`` (k,),
     ascending: an edge crosses a plane when ``z_min < h <= z_max``, at the point linear
     along it.  Returns plane (s,) int and the crossings' (x, y) (s, 2), mm."""
-    plane, a, b, t = _crossing_ends(points, edges, heights)
+    plane, _, a, b, t = crossing_ends(points, edges, heights)
     return plane, a[:, :2] + t[:, None] * (b[:, :2] - a[:, :2])
 
 
@@ -139,9 +150,15 @@ def round_edge_crossings(points: np.ndarray, edges: np.ndarray, heights: np.ndar
     the section's centre, not straight: the chord lies inside it by its sagitta, e^2/8R
     (1 mm for a 17 mm edge on a 35 mm ankle: a tape girth 6 mm short), while the arc
     about the centre is the skin's own on a round section.  Same returns, mm."""
-    plane, a, b, t = _crossing_ends(points, edges, heights)
+    plane, _, a, b, t = crossing_ends(points, edges, heights)
+    return plane, round_about_centres(plane, a, b, t, len(heights))
+
+
+def round_about_centres(plane: np.ndarray, a: np.ndarray, b: np.ndarray, t: np.ndarray, k: int) -> np.ndarray:
+    """(s, 2) mm: the crossings of :func:`crossing_ends` (plane (s,) of ``k``, ends a and
+    b (s, 3), t (s,)) interpolated in radius and angle about their plane's centre
+    (:func:`round_edge_crossings`)."""
     linear = a[:, :2] + t[:, None] * (b[:, :2] - a[:, :2])
-    k = len(heights)
     count = np.maximum(np.bincount(plane, minlength=k), 1)
     centre = np.column_stack([np.bincount(plane, linear[:, i], minlength=k) for i in (0, 1)]) / count[:, None]
     from_a, from_b = a[:, :2] - centre[plane], b[:, :2] - centre[plane]
@@ -149,4 +166,4 @@ def round_edge_crossings(points: np.ndarray, edges: np.ndarray, heights: np.ndar
     turn = np.angle(np.exp(1j * (np.arctan2(from_b[:, 1], from_b[:, 0]) - angle_a)))  # (-pi, pi]
     radius = (1.0 - t) * np.linalg.norm(from_a, axis=1) + t * np.linalg.norm(from_b, axis=1)
     angle = angle_a + t * turn
-    return plane, centre[plane] + radius[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    return centre[plane] + radius[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])

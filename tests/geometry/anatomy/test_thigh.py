@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from app.geometry.anatomy.thigh import thigh_measures
+from app.geometry.fit.sparse_clouds import sparse_cloud_graph
 from app.geometry.placement.place import place_leg
-from app.geometry.sections import neighbour_edges
 from tests.conftest import fitted
 
 D = 250.0  # the knee waist, mm above B
@@ -160,7 +160,9 @@ def test_real_legs_as_meshes_and_as_their_vertices():
     mesh, cloud = thigh_measures(local, leg.faces, d, False), thigh_measures(local, None, d, False)
     # and as the sparse cloud its 13.6k vertices are (8 points per mm of the calf): read on
     # its neighbour graph, the back's profile too
-    graph = thigh_measures(local, None, d, False, neighbour_edges(local))
+    edges = sparse_cloud_graph(local, None, d)
+    assert edges is not None
+    graph = thigh_measures(local, None, d, False, edges)
     for read in (cloud, graph):
         for a, b in ((mesh.knee, read.knee), (mesh.mid_thigh, read.mid_thigh), (mesh.top_of_thigh, read.top_of_thigh)):
             assert a.height_mm == pytest.approx(b.height_mm, abs=5.0) and a.girth_mm == pytest.approx(b.girth_mm, abs=6.0)

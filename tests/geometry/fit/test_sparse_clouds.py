@@ -1,13 +1,14 @@
-"""A sparse cloud's knee waist read again on its neighbour graph
-(app.geometry.fit.sparse_clouds.knee_waist_on_graph), on a tessellation's vertices of a
-leg of revolution whose knee waist is known."""
+"""A sparse cloud's knee waist and B1 read again on its neighbour graph
+(app.geometry.fit.sparse_clouds), on a tessellation's vertices of a leg of revolution
+whose knee waist or calf rise is known."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from app.geometry.fit.sparse_clouds import knee_waist_on_graph, sparse_cloud_graph
+from app.geometry.fit.sparse_clouds import b1_on_graph, knee_waist_on_graph, sparse_cloud_graph
+from app.geometry.sections import limb_graph, neighbour_edges, tape_girths
 
 WAIST = 300.0  # mm: the height of the least radius
 
@@ -66,3 +67,63 @@ def test_a_short_section_at_the_cut_does_not_draw_the_waist_to_it():
     slabs_d = WAIST + 8.0
     d_mm, at_edge = knee_waist_on_graph(cloud, sparse_cloud_graph(cloud, None, slabs_d), slabs_d, at_scan_edge=False)
     assert d_mm == slabs_d and not at_edge
+
+
+def _coarse_calf(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 3) mm: a calf of revolution whose radius rises from 35 mm at B (z = 0) to 58 at
+    C (z = 250) on a smooth step, tessellated as a body mesh's lower calf is - rings 28 mm
+    apart, 40 vertices 5-9 mm apart round each, every other ring turned half a step, 0.1
+    mm of noise (chart_accuracy 8 11, leg 5, body_vertices); and its girths' truth
+    2 pi r(z) on a 1 mm grid (the rings are circles), as (2, k) heights and girths."""
+    z = np.arange(-56.0, 400.0, 28.0)
+    def radius(h):  # noqa: E306 - the step is the calf's rise, steepest 125 mm above B
+        return 35.0 + 23.0 / (1.0 + np.exp(-(h - 125.0) / 30.0))
+    turn = (np.arange(len(z)) % 2)[:, None] * np.pi / 40
+    angle = np.linspace(0.0, 2 * np.pi, 40, endpoint=False)[None, :] + turn
+    r = radius(z)[:, None]
+    ring = np.stack([r * np.cos(angle), r * np.sin(angle), np.broadcast_to(z[:, None], angle.shape)], axis=-1)
+    cloud = ring.reshape(-1, 3) + rng.normal(0.0, 0.1, (ring.size // 3, 3))
+    heights = np.arange(0.0, 251.0)
+    return cloud, np.stack([heights, 2 * np.pi * radius(heights)])
+
+
+def test_a_coarse_tessellations_rings_are_joined_along_the_limb():
+    """Rings four times farther apart than their points: a point's nearest all lie on its
+    own ring, so the mutual graph joins no ring to the next (and its streak test took the
+    rings' arcs for a scanner's streaks), and every plane between two rings was open -
+    B1's whole rise, its girth then read on thick slabs.  The limb graph joins each point
+    to its nearest above and below: every plane from B to C closes.  Read on the chords
+    between rings, a girth is short of the girth of revolution by no more than the
+    profile's bend over a ring's gap (girth'' x 28^2 / 8, 1.5 mm where the rise bends
+    most) and the noise; on the cubic Hermite curve through each chain of points along
+    the limb it reads closer.  B1, halfway up the rise, is read on the graph within 2 mm
+    of where the leg of revolution has it."""
+    cloud, (heights, truth) = _coarse_calf(np.random.default_rng(11))
+    graph = sparse_cloud_graph(cloud, None, 250.0)
+    assert graph is not None
+    girth = tape_girths(cloud, None, heights, graph)
+    assert np.isfinite(girth).all()
+    # a chord between rings reads short by the profile's bend over the gap at most (+ the
+    # noise); the crossings on the Hermite curve through the chain read closer than chords
+    bend = float(np.abs(np.gradient(np.gradient(truth, heights), heights)).max()) * 28.0**2 / 8
+    chord_error = np.abs(tape_girths(cloud, None, heights, graph.chords()) - truth).max()
+    assert chord_error < bend + 0.3
+    assert np.abs(girth - truth).max() < 0.75 * chord_error
+    b1 = b1_on_graph(cloud, graph, 0.0, 250.0)
+    halfway = float(np.interp(0.5 * (truth[0] + truth[-1]), truth, heights))
+    assert b1 is not None and abs(b1 - halfway) < 2.0
+
+
+def test_edges_along_the_limb_stay_on_its_side():
+    """Each point is joined to the ring above (but the top ring's) by an edge within 45
+    degrees of the limb's axis: none crosses the limb from one side to the other."""
+    cloud, _ = _coarse_calf(np.random.default_rng(13))
+    along = limb_graph(cloud, neighbour_edges(cloud, drop_streaks=False)).along
+    z = cloud[:, 2]
+    assert (z[along[:, 1]] > z[along[:, 0]]).all()  # lower point first
+    joined_up = np.zeros(len(cloud), dtype=bool)
+    joined_up[along[:, 0]] = True
+    assert joined_up[z < z.max() - 14.0].all()
+    run = cloud[along[:, 1]] - cloud[along[:, 0]]
+    assert (run[:, 2] >= np.cos(np.radians(45.0)) * np.linalg.norm(run, axis=1) - 1e-9).all()
+    assert np.linalg.norm(run, axis=1).max() < 35.0  # the next ring, not the far side
