@@ -10,7 +10,7 @@ edge and its section is open, or open over a wide arc that the polar fit bridges
 A body mesh's lower calf has rings 28 mm apart with points 7 mm apart round them
 (benchmarks/chart_accuracy.py 8 11, leg 5, body_vertices: the graph open from 66 to 146
 mm above B, over the whole of B1's rise); at the ankle its sections closed with arcs of
-45-55 degrees empty and read cB 1-3.5 mm short (seeds 3-13, 43 of 85 sparse re-scans
+45-55 degrees empty and read cB 1-3.5 mm short (seeds 3-13, 44 of the 85 fitted sparse re-scans
 more than 0.5 mm short).  The skin between two rings runs from one to the other as the
 mesh's faces did, so a point's nearest above and below "along the limb" - within
 :data:`ALONG_LIMB_CONE_DEG` of its axis - are its neighbours on the skin there: within
