@@ -3,7 +3,8 @@
 Run:  .venv/bin/python benchmarks/chart_accuracy.py [LEGS] [SEED]   (default 8 11)
       .venv/bin/python benchmarks/chart_accuracy.py --rewrite [STEM] (the md from STEM.json, default
                                                                     chart_accuracy: a layout change only)
-Writes benchmarks/results/chart_accuracy.md and chart_accuracy.json.
+Writes benchmarks/results/chart_accuracy.md and chart_accuracy.json (chart_accuracy-seedSEED.*
+for another seed: the held-out seeds' results apart).
 
 Each of LEGS generated whole legs with their feet (an ANSUR II subject's MakeHuman leg,
 benchmarks/corpus) is scanned clean (a mesh, the reference: the same quantities measured
@@ -214,8 +215,14 @@ def main(legs: int = 8, seed: int = 11) -> dict:
         "real": real_scans(),
         "per_leg": per_leg,
     }
-    write(summary)
+    write(summary, result_stem(seed))
     return summary
+
+
+def result_stem(seed: int) -> str:
+    """The results' file stem: seed 11's (the development seed) plain, a held-out seed's
+    apart, so that running one does not overwrite another."""
+    return "chart_accuracy" if seed == 11 else f"chart_accuracy-seed{seed}"
 
 
 def real_scans() -> list[dict]:
@@ -313,5 +320,5 @@ if __name__ == "__main__":
         stem = sys.argv[2] if len(sys.argv) > 2 else stem
         write(json.loads((RESULTS / f"{stem}.json").read_text()), stem)
     else:
-        main(*[int(a) for a in sys.argv[1:]])
+        stem = result_stem(main(*[int(a) for a in sys.argv[1:]])["seed"])
     print((RESULTS / f"{stem}.md").read_text())

@@ -1,6 +1,7 @@
-"""benchmarks/chart_accuracy.py: which re-scan pairs count as read without a warning."""
+"""benchmarks/chart_accuracy.py: which re-scan pairs count as read without a warning, and
+where each seed's results go."""
 
-from benchmarks.chart_accuracy import unwarned_pairs, unwarned_readings, warned_about
+from benchmarks.chart_accuracy import result_stem, unwarned_pairs, unwarned_readings, warned_about
 
 
 def _scan(cg: float, **flags) -> dict:
@@ -32,3 +33,8 @@ def test_a_leg_whose_clean_scan_failed_has_no_pairs():
     leg = {"scans": {"mesh_clean": {"outcome": "no_calf"}, "noise": _scan(500.0), "cloud": _scan(501.0)}}
     assert unwarned_pairs([leg], "cG") == []
     assert unwarned_readings([leg], "cG") == (0, 0)
+
+
+def test_a_held_out_seed_does_not_overwrite_the_development_seeds_results():
+    assert result_stem(11) == "chart_accuracy"
+    assert {result_stem(seed) for seed in (3, 5, 7, 9, 13)} == {f"chart_accuracy-seed{seed}" for seed in (3, 5, 7, 9, 13)}
