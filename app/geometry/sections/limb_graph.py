@@ -36,6 +36,7 @@ Units: mm.  Arrays: points (n, 3) in a frame whose z runs along the limb.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -74,20 +75,21 @@ class LimbGraph:
     beyond: np.ndarray
     mutual: np.ndarray
 
-    @property
+    @cached_property
     def edges(self) -> np.ndarray:
-        """(e + a, 2): every edge, the skin's first."""
+        """(e + a, 2): every edge, the skin's first (joined once per graph: every tape
+        read on it crosses them all)."""
         return np.concatenate([self.skin, self.along])
-
-    def chords(self) -> LimbGraph:
-        """The same edges, each crossing a plane on its chord along the limb (no chain
-        beyond it, as :func:`limb_crossings` reads a chain's end)."""
-        return LimbGraph(self.skin, self.along, np.full_like(self.beyond, -1), self.mutual)
 
     def renumbered(self, new_index: np.ndarray) -> LimbGraph:
         """The same graph over the points reordered so that point i is ``new_index[i]``."""
         beyond = np.where(self.beyond >= 0, new_index[np.maximum(self.beyond, 0)], -1)
         return LimbGraph(new_index[self.skin], new_index[self.along], beyond, new_index[self.mutual])
+
+
+def _along_the_limb(offset: np.ndarray) -> np.ndarray:
+    """(...,) bool: the offsets (..., 3) within ALONG_LIMB_CONE_DEG of the z axis, up or down."""
+    return np.abs(offset[..., 2]) >= np.cos(np.radians(ALONG_LIMB_CONE_DEG)) * np.linalg.norm(offset, axis=-1)
 
 
 def limb_graph(points: np.ndarray, skin_edges: np.ndarray, mutual: np.ndarray | None = None) -> LimbGraph:
@@ -106,14 +108,14 @@ def limb_graph(points: np.ndarray, skin_edges: np.ndarray, mutual: np.ndarray | 
     _, nearest = cKDTree(local).query(local, k=k + 1)
     nearest = nearest[:, 1:]  # (s, k) rising distance, each point itself left out
     offset = local[nearest] - local[:, None, :]  # (s, k, 3)
-    cone = np.abs(offset[..., 2]) >= np.cos(np.radians(ALONG_LIMB_CONE_DEG)) * np.linalg.norm(offset, axis=2)
+    cone = _along_the_limb(offset)
     up, down = np.full(len(points), -1), np.full(len(points), -1)  # each point's nearest above / below
     for neighbour, inside in ((up, cone & (offset[..., 2] > 0)), (down, cone & (offset[..., 2] < 0))):
         found = inside.any(axis=1)
         neighbour[skin[found]] = skin[nearest[found, np.argmax(inside, axis=1)[found]]]
     # the mutual graph's own edges within the cone run along the limb too
     run = points[skin_edges[:, 1]] - points[skin_edges[:, 0]]
-    in_cone = np.abs(run[:, 2]) >= np.cos(np.radians(ALONG_LIMB_CONE_DEG)) * np.linalg.norm(run, axis=1)
+    in_cone = _along_the_limb(run)
     rising = run[:, 2] > 0
     joined, joined_below = up[skin] >= 0, down[skin] >= 0
     pairs = np.concatenate([np.column_stack([skin[joined], up[skin[joined]]]),
