@@ -37,6 +37,21 @@ def test_a_standing_foot_stands_on_its_heels_lowest_skin(foot):
     assert as_cloud.reason is None and as_cloud.height_mm == pytest.approx(as_mesh.height_mm, abs=1.0)
 
 
+def test_a_scanners_noise_does_not_lower_the_floor(foot):
+    """1 mm of noise on every point of a dense cloud of the heel's skin (a scanner's
+    noise moves points off the skin both ways): the lowest noisy point lies 1.5 mm or more
+    below the clean skin's, and the heel's underside fitted over its skin stays within
+    0.5 mm of the clean cloud's sole."""
+    points, faces = foot
+    cloud = _skin_cloud(points, faces)
+    clean = find_sole(cloud, None).height_mm
+    noisy = cloud + np.random.default_rng(3).normal(0.0, 1.0, cloud.shape)
+    heel = noisy[(noisy[:, 1] <= 0.0) & (noisy[:, 2] < 0.0)]
+    assert heel[:, 2].min() < clean - 1.5
+    sole = find_sole(noisy, None)
+    assert sole.reason is None and sole.height_mm == pytest.approx(clean, abs=0.5)
+
+
 def test_a_clouds_stray_points_under_the_heel_are_not_its_sole(foot):
     """Ghosts 5-30 mm off the heel's skin and a floor's stray points a few mm under it, as
     a scanner leaves them: the sole stays within 1 mm of the clean cloud's, where the
