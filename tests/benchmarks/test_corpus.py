@@ -69,13 +69,16 @@ def test_the_generator_is_deterministic():
 
 @pytest.mark.parametrize("case_id", ["seated-00", "seated-02", "seated-03"])
 def test_a_seated_leg_is_measured_along_its_shank(case_id):
-    """Knees bent 56, 32 and 84 degrees (specs of the 220-case corpus), foot to hip."""
+    """Knees bent 42, 51 and 74 degrees (specs of the 220-case corpus, seed 7), foot to
+    hip, read straight (no cut at the knee): B and C within 2 mm, and the record says that
+    cD, lC and lD were read on a bent knee."""
     case = build_case({s.case_id: s for s in corpus_specs(220)}[case_id])
     assert case.expect == "fit"
     result = run_case(case)
     assert result["outcome"] == "fit", result.get("detail")
     for name in ("B", "C"):
         assert abs(result["girth_error_mm"][name]) <= 2.0, (name, result["girth_error_mm"])
+    assert [w for w in result["warnings"] if "cD and lD are read at the waist of a bent knee" in w]
 
 
 @pytest.mark.parametrize("case_id", ["cut_below_knee-00", "cut_below_knee-03", "ankle_to_thigh-05"])

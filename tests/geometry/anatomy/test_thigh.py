@@ -185,8 +185,11 @@ def test_a_thigh_leaving_the_shanks_axis_is_a_bent_knee_even_when_not_cut_free(t
     if bent:
         for point in (found.knee, found.mid_thigh, found.top_of_thigh):
             assert point.girth_mm is None and "knee is bent" in point.reason and "30 degrees" in point.reason
+        # and the knee waist below it, read on that bent knee, is warned about
+        assert [w for w in found.warnings if "cD and lD are read at the waist of a bent knee" in w and "30 degrees" in w]
     else:
         assert found.knee.girth_mm is not None and found.knee.reason is None
+        assert not [w for w in found.warnings if "bent knee" in w]
 
 
 def test_a_crownless_knees_middle_stays_put_on_noisy_re_scans():
