@@ -118,6 +118,11 @@ def _heel_back(heel: np.ndarray, faces: np.ndarray | None, middle_x: float, lowe
     return (rearmost + 0.5) * HEEL_SLAB_MM, float(rear[filled[0]] - rear[rearmost])
 
 
+def _quadratic_terms(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(k, 6) the terms 1, x, y, x^2, xy, y^2 of a quadratic surface at (x, y) (k,) mm."""
+    return np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+
+
 def heel_underside(patch: np.ndarray, lowest: np.ndarray) -> float:
     """The sole's height (mm): the least of the quadratic z = q(x, y) fitted by least
     squares to the heel's skin points ``patch`` (k, 3) mm within SOLE_PATCH_MM of its
@@ -128,7 +133,7 @@ def heel_underside(patch: np.ndarray, lowest: np.ndarray) -> float:
     if len(patch) < SOLE_PATCH_POINTS:
         return float(lowest[2])
     x, y = patch[:, 0] - lowest[0], patch[:, 1] - lowest[1]
-    design = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    design = _quadratic_terms(x, y)
     coef = np.linalg.lstsq(design, patch[:, 2], rcond=None)[0]
     heights = design @ coef
     least = float(heights.min())
@@ -136,7 +141,7 @@ def heel_underside(patch: np.ndarray, lowest: np.ndarray) -> float:
     if np.all(np.linalg.eigvalsh(hessian) > 0):  # a cap: its vertex, where it lies over the patch
         vertex = np.linalg.solve(hessian, -coef[1:3])
         if np.hypot(*vertex) <= SOLE_PATCH_MM:
-            least = min(least, float(np.array([1.0, *vertex, vertex[0] ** 2, vertex[0] * vertex[1], vertex[1] ** 2]) @ coef))
+            least = min(least, float(_quadratic_terms(vertex[:1], vertex[1:])[0] @ coef))
     return least if least < float(patch[:, 2].max()) else float(lowest[2])
 
 

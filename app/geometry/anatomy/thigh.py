@@ -94,9 +94,9 @@ def bent_knee_warning(tilt_deg: float) -> str:
     the thigh leaving the shank's axis by 31-55 degrees): cD off by up to 4.6 mm (median
     1.35, p95 4.2), lD by up to 6.8 and lC by up to 5.4, where the 57 standing legs that
     reach the thigh (ankle_to_thigh, two_legs) stayed within 2.5 mm of cD (median 0.3),
-    3.7 of lD and 1.9 of lC.  An
-    order's tolerance on cD is 4 mm (benchmarks/results/robustness.md), so the record
-    says so rather than stand behind them."""
+    3.7 of lD and 1.9 of lC.  An order's tolerance on cD is 4 mm
+    (benchmarks/results/robustness.md), so the record says so rather than stand behind
+    them."""
     return (f"the knee is bent (above the knee waist D the leg leaves the shank's axis by {tilt_deg:.0f} degrees; a "
             f"standing leg's by less than {MAX_THIGH_TILT_DEG:.0f}): cD and lD are read at the waist of a bent knee, "
             "whose hollow the back of the thigh closes on, and lC along the shank below it, so they may be off by more "
