@@ -98,6 +98,8 @@ FAILURE_TITLES = {
     FailureReason.PARTIAL_VIEW: "The scan does not go all round the leg",
     FailureReason.NO_ANKLE: "No ankle in the scanned range",
     FailureReason.NO_KNEE: "No knee in the scanned range",
+    FailureReason.NO_CALF: "No calf in the scan",
+    FailureReason.SEVERAL_LEGS: "The scan holds more than one leg",
     FailureReason.SIDE_NOT_FOUND: "The leg cannot be picked out of the body",
     FailureReason.INVALID_OPTION: "Invalid fitting option",
     FailureReason.DEGENERATE_SURFACE: "The surface cannot be built",

@@ -15,6 +15,9 @@ from app.services.fair_share import too_many_jobs
 from app.services.storage import ScanStore
 from app.services.uploads import ReceivedUpload
 
+#: a failed job's title where its stored code has none
+JOB_FAILED_TITLE = "The fit could not be completed"
+
 
 class JobService:
     """Scans and jobs of one tenant: the same bytes are stored once per tenant."""
@@ -102,10 +105,10 @@ def job_status_counts(session: Session) -> dict[str, int]:
 def job_view(job: Job, scan: Scan, reused: bool | None = None, warnings: list[str] | None = None) -> dict:
     error = None
     if job.error_code:
-        try:
-            title = FAILURE_TITLES[FailureReason(job.error_code)]
+        try:  # a code stored by an older or newer release may not be a reason of this one
+            title = FAILURE_TITLES.get(FailureReason(job.error_code), JOB_FAILED_TITLE)
         except ValueError:
-            title = "The fit could not be completed"
+            title = JOB_FAILED_TITLE
         error = {"type": PROBLEM_TYPE_PREFIX + job.error_code, "code": job.error_code, "title": title, "detail": job.error_detail or ""}
     links = {"self": f"/api/v1/jobs/{job.id}"}
     if job.record_id:
