@@ -99,6 +99,7 @@ FAILURE_TITLES = {
     FailureReason.NO_ANKLE: "No ankle in the scanned range",
     FailureReason.NO_KNEE: "No knee in the scanned range",
     FailureReason.NO_CALF: "No calf in the scan",
+    FailureReason.KNEE_BENT: "The knee is bent too far to measure the calf",
     FailureReason.SEVERAL_LEGS: "The scan holds more than one leg",
     FailureReason.SIDE_NOT_FOUND: "The leg cannot be picked out of the body",
     FailureReason.INVALID_OPTION: "Invalid fitting option",

@@ -81,7 +81,9 @@ UPLOAD_BODY = {
             s422="the scan cannot be fitted, with the reason: unreadable_file, truncated_file, empty_scan, "
             "non_finite_coordinates, too_few_points, scan_too_large (more points or triangles than "
             "CALF_MAX_SCAN_POINTS / CALF_MAX_SCAN_FACES), implausible_size, not_a_leg, partial_view (the scan sees the leg from one side: "
-            "the detail gives the arc without skin), no_calf (no calf bulge), "
+            "the detail gives the arc without skin), knee_bent (a knee bent so far, a leg scanned seated, that the "
+            "planes across the calf cut the thigh too: scan it standing or lying with the knee straight; reported by "
+            "the fit job), no_calf (no calf bulge), "
             "no_ankle / no_knee (the ankle or the knee waist is not in the scan: the detail says how far the "
             "scan reaches and what a re-scan must include), several_legs (the detail lists the legs found; "
             "pass side), side_not_found, invalid_option, invalid_case_ref",

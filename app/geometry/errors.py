@@ -29,6 +29,7 @@ class FailureReason(str, enum.Enum):
     NO_ANKLE = "no_ankle"
     NO_KNEE = "no_knee"
     NO_CALF = "no_calf"
+    KNEE_BENT = "knee_bent"
     SEVERAL_LEGS = "several_legs"
     SIDE_NOT_FOUND = "side_not_found"
     INVALID_OPTION = "invalid_option"

@@ -81,6 +81,18 @@ def test_a_seated_leg_is_measured_along_its_shank(case_id):
     assert [w for w in result["warnings"] if "cD and lD are read at the waist of a bent knee" in w]
 
 
+def test_a_leg_seated_with_its_thigh_in_the_calfs_planes_is_refused_for_its_bent_knee():
+    """Knee bent 87 degrees (the 220-case corpus, seed 11, seated-02): the straight axis
+    places the calf, but the planes of C and D cut the buttock and the thigh too; the fit
+    refuses it as knee_bent, asking for the leg straight, not as partial_view ("scan all
+    round the leg", which it was)."""
+    case = build_case({s.case_id: s for s in corpus_specs(220, 11)}["seated-02"])
+    assert case.truth.knee_hidden
+    result = run_case(case)
+    assert result["outcome"] == "knee_bent", result.get("detail")
+    assert "knee straight" in result["detail"]
+
+
 @pytest.mark.parametrize("case_id", ["cut_below_knee-00", "cut_below_knee-03", "ankle_to_thigh-05"])
 def test_a_crop_names_what_is_really_missing(case_id):
     """A scan from the foot to below the knee waist lacks the knee (the foot is not read as

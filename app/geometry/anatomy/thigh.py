@@ -39,6 +39,7 @@ from app.geometry.anatomy.gluteal_fold import gluteal_fold, posterior_profile
 from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle_of_the_knee
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
+from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.sections import LimbGraph, PolarSections, tape_sections
 
 #: the stored thigh profile's spacing, mm (a knitting specification's usual step)
@@ -114,6 +115,51 @@ def _thigh_tilt_deg(heights: np.ndarray, sections: PolarSections, d_mm: float) -
     return float(np.degrees(np.arctan(np.hypot(drift[0], drift[1]))))
 
 
+def _knee_span(d_mm: float, top_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """The heights (k,) every STEP_MM from D to below the scan's top ``top_mm``, and which
+    of them (k,) bool lie in E's window and its slope's reach (the knee's sections)."""
+    heights = np.arange(d_mm, top_mm - STEP_MM, STEP_MM)
+    return heights, heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
+
+
+#: the refusals of a calf read straight that a bent knee explains: its sections open or
+#: not closed where the planes across the shank cut the thigh or the buttock too
+KNEE_BENT_CAUSES = (FailureReason.PARTIAL_VIEW, FailureReason.NOT_A_LEG)
+
+
+def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray | None, d_mm: float,
+                      edges: LimbGraph | None = None) -> FitFailure:
+    """``failure`` of a calf the placement read straight (knee waist D at ``d_mm``), said
+    as what it is when the knee is bent: ``knee_bent`` when the failure is one of
+    :data:`KNEE_BENT_CAUSES` and the leg above D leaves the shank's axis by more than
+    MAX_THIGH_TILT_DEG (:func:`_thigh_tilt_deg`, the test that warns of a bent knee on a
+    fit); else ``failure`` itself.
+
+    Why: a knee bent 84-98 degrees (a leg scanned seated) puts the back of the thigh and
+    the buttock in the planes across the shank at the calf and the knee waist; the
+    sections then hold two pieces, their rays are cast from between them, and the calf
+    is refused as seen from one side ("scan all round the leg": benchmarks/robustness.py
+    220 11 seated-02, -07, -09 and 220 13 seated-04), which sends the clinic the wrong way.
+    The thigh of such a leg leaves the shank's axis by 30-55 degrees, a standing leg's by
+    less than 8.  points (n, 3) calf-frame mm, faces (f, 3) or None."""
+    if failure.reason not in KNEE_BENT_CAUSES or not len(points):
+        return failure
+    heights, knee = _knee_span(d_mm, float(points[:, 2].max()))
+    heights = heights[knee & (heights >= d_mm + THIGH_AXIS_FROM_D_MM)]
+    if len(heights) < 4:
+        return failure
+    tilt = _thigh_tilt_deg(heights, tape_sections(points, faces, heights, edges), d_mm)
+    if tilt is None or tilt <= MAX_THIGH_TILT_DEG:
+        return failure
+    return FitFailure(
+        FailureReason.KNEE_BENT,
+        f"the knee is bent: above the knee the leg leaves the shank's axis by {tilt:.0f} degrees (a standing leg's "
+        f"by less than {MAX_THIGH_TILT_DEG:.0f}), and the planes a tape lies in across the calf and below the knee cut "
+        "the thigh or the buttock too, so the calf's girths cannot be read from this scan (read as "
+        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression "
+        "stocking is measured.")
+
+
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,
                    edges: LimbGraph | None = None) -> ThighMeasures:
     """E, F, G of the module docstring (mm), or why not; ``edges``: a sparse cloud's
@@ -124,12 +170,11 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     top = float(points[:, 2].max())
     if top < d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM:
         return _none(f"the scan ends {top - d_mm:.0f} mm above D, below the top of the knee")
-    heights = np.arange(d_mm, top - STEP_MM, STEP_MM)
+    heights, knee_span = _knee_span(d_mm, top)
     # girths every STEP_MM only where E is searched (its window and the slope's reach):
     # above it only F, G and the profile's PROFILE_STEP_MM planes are read, each plane a
     # section of its own (tape_sections), so the thigh's sections cost a third of reading
     # every STEP_MM up to the scan's top (benchmarks/bench_fit.py)
-    knee_span = heights <= d_mm + KNEE_WINDOW_MM[1] + SLOPE_HALF_MM + STEP_MM
     knee_sections = tape_sections(points, faces, heights[knee_span], edges)
     girth = np.full(len(heights), np.nan)
     girth[knee_span] = knee_sections.tape_perimeters()

@@ -32,7 +32,7 @@ from app.geometry.anatomy.feature_layers import (
 from app.geometry.anatomy.feature_points import candidate_angles, radii_at, shared_angles
 from app.geometry.anatomy.foot import foot_measures
 from app.geometry.anatomy.sole import find_sole
-from app.geometry.anatomy.thigh import thigh_measures
+from app.geometry.anatomy.thigh import bent_knee_refusal, thigh_measures
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.leg_model import leg_model_of
 from app.geometry.fit.options import FitOptions
@@ -120,16 +120,24 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
         d_mm, at_edge = knee_waist_on_graph(local, graph, where.d_mm, where.d_at_scan_edge)
         where = dataclasses.replace(where, d_mm=d_mm, d_at_scan_edge=at_edge)
     try:
-        result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
-                          n_scan_points=n_scan_points, graph=graph)
+        try:
+            result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
+                              n_scan_points=n_scan_points, graph=graph)
+        except FitFailure as failure:
+            # D's layer has no sections above it to bridge it from: where the graph's D is a
+            # slab too sparse to close, the slabs' own D (1.4 points per mm: a body's 7k vertices)
+            if where is slabs_where or failure.reason is not FailureReason.TOO_SPARSE:
+                raise
+            where = slabs_where
+            result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
+                              n_scan_points=n_scan_points, graph=graph)
     except FitFailure as failure:
-        # D's layer has no sections above it to bridge it from: where the graph's D is a
-        # slab too sparse to close, the slabs' own D (1.4 points per mm: a body's 7k vertices)
-        if where is slabs_where or failure.reason is not FailureReason.TOO_SPARSE:
+        # a knee bent but read straight: its thigh in the calf's planes is the cause, not
+        # a view from one side (a leg cut free of its thigh, half_spaces, has none there)
+        said = failure if where.half_spaces else bent_knee_refusal(failure, local, leg.faces, where.d_mm, graph)
+        if said is failure:
             raise
-        where = slabs_where
-        result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
-                          n_scan_points=n_scan_points, graph=graph)
+        raise said from failure
     result.timings["calf_frame"] = placing_s
     # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()

@@ -9,7 +9,8 @@ import re
 import numpy as np
 import pytest
 
-from app.geometry.anatomy.thigh import thigh_measures
+from app.geometry.anatomy.thigh import bent_knee_refusal, thigh_measures
+from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.sparse_clouds import sparse_cloud_graph
 from app.geometry.placement.place import place_leg
 from tests.conftest import fitted
@@ -190,6 +191,26 @@ def test_a_thigh_leaving_the_shanks_axis_is_a_bent_knee_even_when_not_cut_free(t
     else:
         assert found.knee.girth_mm is not None and found.knee.reason is None
         assert not [w for w in found.warnings if "bent knee" in w]
+
+
+@pytest.mark.parametrize("tilt_deg,reason", [(7.0, FailureReason.PARTIAL_VIEW), (30.0, FailureReason.KNEE_BENT)])
+def test_a_calf_refused_as_seen_from_one_side_on_a_bent_knee_is_refused_for_the_bent_knee(tilt_deg, reason):
+    """A calf read straight whose sections were open (partial_view) on a leg whose thigh
+    leaves the shank's axis: at 30 degrees the refusal names the bent knee and asks for the
+    leg straight (a seated leg's thigh in the calf's planes opened them, and "scan all
+    round the leg" would send the clinic the wrong way); at a femur's 7 degrees it stays
+    what it was, as does a refusal a bent knee does not explain."""
+    drift = np.tan(np.radians(tilt_deg))
+    leg = _leg(centre_y=lambda z: _centre_y(z) - drift * np.clip(z - 60.0, 0.0, None))
+    seen_from_one_side = FitFailure(FailureReason.PARTIAL_VIEW, "an arc of 130 degrees holds no skin")
+    said = bent_knee_refusal(seen_from_one_side, leg, None, D)
+    assert said.reason is reason
+    if reason is FailureReason.KNEE_BENT:
+        assert "30 degrees" in said.detail and "partial_view" in said.detail and "knee straight" in said.detail
+    else:
+        assert said is seen_from_one_side
+    no_ankle = FitFailure(FailureReason.NO_ANKLE, "the scan starts above the ankle")
+    assert bent_knee_refusal(no_ankle, leg, None, D) is no_ankle
 
 
 def test_a_crownless_knees_middle_stays_put_on_noisy_re_scans():
