@@ -41,6 +41,7 @@ from app.geometry.garment.measuring_points import chart_of_record  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
 from app.records.codec import record_from_fit  # noqa: E402
 from benchmarks.corpus.cases import build_case, leg_rescans  # noqa: E402
+from benchmarks.provenance import environment, environment_line  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -204,7 +205,7 @@ def main(legs: int = 8, seed: int = 11) -> dict:
     # E's and G's warnings (app.geometry.anatomy.thigh: a knee without a level crown, a
     # smooth gluteal fold): is a re-scan whose cE / cG is off by more than 3 mm warned about?
     summary = {
-        "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
+        "legs": legs, "seed": seed, "seconds": time.perf_counter() - started, "environment": environment(),
         "points": {p: {**_stats(errors[p]), "range_p95": _stats(ranges[p]).get("p95"),
                        "pairs_p95": _stats(pairs[p]).get("p95"), "not_measured": missing[p]}
                    for p in GIRTHS + LENGTHS},
@@ -263,6 +264,8 @@ def write(summary: dict, stem: str = "chart_accuracy") -> None:
         "pair), p95 over the legs, and |a - b| over every two scans of one leg, p95 over all such pairs, and "
         "over the pairs whose two readings the record does not warn about (a stated uncertainty, a warning "
         "that E or G is uncertain, B or D at the scan's edge: the clinic re-measures those by tape).",
+        "",
+        environment_line(summary.get("environment")),
         "",
         "| point | n | p50 | p95 | max | range over one leg's scans, p95 | two scans of one leg apart, p95 "
         "| two unwarned scans apart, p95 (readings unwarned) | re-scans not measured |",

@@ -120,7 +120,12 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
     # (still falling: more than 2% over the last 10 mm, twice the girth noise)
     edge = int(np.searchsorted(heights, end))
     falling = edge >= 10 and g[edge - 10] > 1.02 * g[edge - 1]
-    knee_hidden = bool(end - heights[id_] <= MERGE_RUN_MM and falling) or bool(end - heights[ic] <= MERGE_RUN_MM)
+    # ... or when the thigh merges before the girth has fallen off the calf's crown by
+    # those 2% at all: the "knee waist" is then the merge's edge, a few mm above C and as
+    # round as it (robustness 220 11 seated-02: D 5 mm above C, 354.3 mm against 354.2)
+    never_fell = bool(rise.any()) and g[id_] >= 0.98 * g[ic]
+    at_merge = end - heights[id_] <= MERGE_RUN_MM
+    knee_hidden = bool(at_merge and (falling or never_fell)) or bool(end - heights[ic] <= MERGE_RUN_MM)
     crown = np.flatnonzero(np.abs(g - g[ic]) <= CROWN_FRACTION * g[ic])
     crown = crown[(crown > ib) & (crown < id_)]
     if crown.size:  # the run of crown heights that holds the maximum, and its middle
