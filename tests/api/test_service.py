@@ -227,3 +227,20 @@ def test_a_side_given_against_the_foot_is_warned_in_the_job_and_the_record(clien
     warning = next(w for w in job["warnings"] if "given as left" in w)
     record = client.get(f"/api/v1/records/{job['record_id']}").json()
     assert record["side"] == "left" and warning in record["warnings"]
+
+
+@pytest.mark.slow
+def test_a_leg_scanned_seated_fails_its_job_as_knee_bent_with_its_title(client):
+    """The upload check places the calf of a knee bent 87 degrees (benchmarks' corpus, seed
+    11, seated-02); the fit job refuses it, and the job names the bent knee: code, title
+    and a detail asking for the leg straight (no_calf and several_legs had no title, and a
+    job failed with one answered 500)."""
+    from benchmarks.corpus.cases import build_case, corpus_specs
+
+    case = build_case({s.case_id: s for s in corpus_specs(220, 11)}["seated-02"])
+    response = client.post("/api/v1/scans", files={"file": (f"seated.{case.file_type}", case.data, "application/octet-stream")})
+    assert response.status_code == 202, response.text
+    job = wait_for_job(client, response.headers["location"])
+    assert job["status"] == "failed" and job["record_id"] is None
+    assert job["error"]["code"] == "knee_bent" and job["error"]["title"] == "The knee is bent too far to measure the calf"
+    assert "knee straight" in job["error"]["detail"]
