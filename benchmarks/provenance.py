@@ -31,10 +31,10 @@ def _git(*args: str) -> str:
 
 
 def environment() -> dict:
-    """{"commit": short hash (+ "-dirty" when app/ or benchmarks/ differ from it, "" outside
-    a git checkout), "python": version, and each of :data:`NUMERICAL`: its version}."""
+    """{"commit": short hash (+ "-dirty" when the code in app/ or benchmarks/ differs from it,
+    results aside; "" outside a git checkout), "python": version, and each of :data:`NUMERICAL`: its version}."""
     commit = _git("rev-parse", "--short", "HEAD")
-    if commit and _git("status", "--porcelain", "--", "app", "benchmarks"):
+    if commit and _git("status", "--porcelain", "--", "app", "benchmarks", ":(exclude)benchmarks/results"):
         commit += "-dirty"
     versions = {}
     for name in NUMERICAL:
