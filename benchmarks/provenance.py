@@ -2,11 +2,12 @@
 
 The project's dependencies are lower bounds (pyproject.toml): a fresh ``make install``
 takes the newest release the package index serves.  The same commit (8db9cdd) gave seed
-7's corpus girths up to 0.44 mm apart on a noisy cloud (0.0004 mm on a clean mesh) and
-other knee-crown warnings, run in two sessions' virtual environments
-(benchmarks/robustness.py 220 7, 2026-12-06); within one environment the runs agree case
-by case, whatever the threads and the load, and numpy was 2.4.6 in both, so the other
-libraries' releases are the likely cause - the earlier run did not record them.  A
+7's corpus girths up to 1.05 mm apart on a noisy cloud (cB1; 0.28 mm on a mesh) and other
+warnings on 10 of its 218 cases (a floor's point count, the surface's stand-off, the
+knee's and the fold's), run in two sessions' virtual environments
+(benchmarks/robustness.py 220 7, 2026-12-06); within one environment two runs agree case
+by case, under different loads, and numpy was 2.4.6 in both, so the other libraries'
+releases are the likely cause - the earlier run did not record them.  A
 result is comparable across sessions only with its environment, which the results now
 carry.
 """
