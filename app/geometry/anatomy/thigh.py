@@ -135,13 +135,14 @@ def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray
     MAX_THIGH_TILT_DEG (:func:`_thigh_tilt_deg`, the test that warns of a bent knee on a
     fit); else ``failure`` itself.
 
-    Why: a knee bent 84-98 degrees (a leg scanned seated) puts the back of the thigh and
+    Why: a knee bent 82-98 degrees (a leg scanned seated) puts the back of the thigh and
     the buttock in the planes across the shank at the calf and the knee waist; the
     sections then hold two pieces, their rays are cast from between them, and the calf
     is refused as seen from one side ("scan all round the leg": benchmarks/robustness.py
     220 11 seated-02, -07, -09 and 220 13 seated-04), which sends the clinic the wrong way.
-    The thigh of such a leg leaves the shank's axis by 30-55 degrees, a standing leg's by
-    less than 8.  points (n, 3) calf-frame mm, faces (f, 3) or None."""
+    Their thighs leave the shank's axis by 51-61 degrees (the seated legs fitted with the
+    bent-knee warning by 31-55), a standing leg's by less than 8.  points (n, 3)
+    calf-frame mm, faces (f, 3) or None."""
     if failure.reason not in KNEE_BENT_CAUSES or not len(points):
         return failure
     heights, knee = _knee_span(d_mm, float(points[:, 2].max()))
