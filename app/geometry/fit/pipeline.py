@@ -65,25 +65,28 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
     if graph is not None and not where.d_at_window_edge:  # a sparse cloud's D read again on its graph
         d_mm, at_edge = knee_waist_on_graph(local, graph, where.d_mm, where.d_at_scan_edge)
         where = dataclasses.replace(where, d_mm=d_mm, d_at_scan_edge=at_edge)
-    try:
+
+    def calf_at(at: LegPlacement) -> FitResult:
         try:
-            result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
-                              n_scan_points=n_scan_points, graph=graph)
+            return fit_calf(local, leg.faces, at.c_mm, at.d_mm, options, placement=at, n_scan_points=n_scan_points,
+                            graph=graph)
         except FitFailure as failure:
-            # D's layer has no sections above it to bridge it from: where the graph's D is a
-            # slab too sparse to close, the slabs' own D (1.4 points per mm: a body's 7k vertices)
-            if where is slabs_where or failure.reason is not FailureReason.TOO_SPARSE:
+            # a knee bent but read straight: its thigh in the calf's planes is the cause,
+            # not a view from one side (a leg cut free of its thigh, half_spaces, has none)
+            said = failure if at.half_spaces else bent_knee_refusal(failure, local, leg.faces, at.d_mm, graph)
+            if said is failure:
                 raise
-            where = slabs_where
-            result = fit_calf(local, leg.faces, where.c_mm, where.d_mm, options, placement=where,
-                              n_scan_points=n_scan_points, graph=graph)
+            raise said from failure
+
+    try:
+        result = calf_at(where)
     except FitFailure as failure:
-        # a knee bent but read straight: its thigh in the calf's planes is the cause, not
-        # a view from one side (a leg cut free of its thigh, half_spaces, has none there)
-        said = failure if where.half_spaces else bent_knee_refusal(failure, local, leg.faces, where.d_mm, graph)
-        if said is failure:
+        # D's layer has no sections above it to bridge it from: where the graph's D is a
+        # slab too sparse to close, the slabs' own D (1.4 points per mm: a body's 7k vertices)
+        if where is slabs_where or failure.reason is not FailureReason.TOO_SPARSE:
             raise
-        raise said from failure
+        where = slabs_where
+        result = calf_at(where)
     result.timings["calf_frame"] = placing_s
     # the order form's points off the calf (foot length, cA, cY; cE, cF, cG), or why not
     measuring = time.perf_counter()
