@@ -113,18 +113,26 @@ def judged(got: dict, clean: dict) -> dict:
     return {"right": not off or bool(said), "errors": errors, "said": said}
 
 
-def main(legs: int = 20, seed: int = 23) -> dict:
+def leg_scans(legs: int, seed: int):
+    """Each of ``legs`` generated legs (mm) with its incomplete scans (:func:`incomplete_scans`),
+    drawn from ``seed``: (leg index, clean mesh, scans).  A leg's scans are drawn whether or
+    not its clean mesh fits, so a leg's scans do not depend on how the fit of another went."""
     rng = np.random.default_rng(seed)
-    started = time.perf_counter()
-    rows = []
     for leg in range(legs):
         mesh, axis, _ = clean_leg(int(rng.integers(2**31)), int(rng.integers(len(ansur_subjects()))))
+        yield leg, mesh, incomplete_scans(mesh, axis, rng)
+
+
+def main(legs: int = 20, seed: int = 23) -> dict:
+    started = time.perf_counter()
+    rows = []
+    for leg, mesh, scans in leg_scans(legs, seed):
         clean = read(mesh.export(file_type="stl"), "stl")
         if clean["outcome"] != "fit":
             rows.append({"leg": leg, "kind": "mesh_clean", "what": "-", "outcome": clean["outcome"],
                          "detail": clean.get("detail"), "right": False, "errors": {}, "said": []})
             continue
-        for kind, (data, file_type, what) in incomplete_scans(mesh, axis, rng).items():
+        for kind, (data, file_type, what) in scans.items():
             got = read(data, file_type)
             verdict = judged(got, clean)
             rows.append({"leg": leg, "kind": kind, "what": what, "outcome": got["outcome"], "detail": got.get("detail"),

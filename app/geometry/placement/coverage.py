@@ -69,6 +69,51 @@ def partial_view(sections: PolarSections) -> FitFailure | None:
         "before exporting.")
 
 
+#: the refusals about the leg's shape that a strip bridged in every section can cause
+SHAPE_REFUSALS = (FailureReason.NO_ANKLE, FailureReason.NO_KNEE, FailureReason.NO_CALF, FailureReason.NOT_A_LEG)
+
+
+def bridged_strip_refusal(failure: FitFailure, sections: PolarSections) -> FitFailure | None:
+    """A refusal about the leg's shape (``failure``: no ankle, knee waist or calf found on
+    the profile of ``sections``) re-read as ``partial_view`` when the profile was read
+    through a strip the scanner missed, or None.
+
+    :func:`partial_view` refuses a strip whose arcs exceed MAX_GAP_DEG; narrower ones are
+    bridged by the slicer's chord and read.  A bridge under-reads a section's girth by up
+    to :func:`arc_bridge_bound_mm`: 3 mm (an order's tolerance, GIRTH_TOLERANCE_MM) at a
+    45-degree arc on a 60 mm calf radius, 35 mm at 90 degrees, against a knee waist that
+    dips 5-15% (20-60 mm) below the calf and the knee.  So when the landmarks are not
+    found and at least ONE_SIDED_SHARE of the sections holding skin miss an arc whose
+    bridge may move their girth by more than that tolerance - the test the fit warns on
+    (:func:`bridged_arcs`) - on the same side of the leg (Rayleigh's mean resultant length
+    at least SAME_DIRECTION, as :func:`partial_view`), the missing strip is the likelier
+    cause, and asking for the knee or the ankle the scan holds would send the clinic the
+    wrong way.  Measured on benchmarks/coverage.py 20 31, leg 10: a cloud missing a strip
+    of 107 degrees read its arcs as 85-110 degrees (median 100, the limit: seen from the
+    remaining skin's centroid, which the missing strip shifts away from it, an arc looks
+    narrower) at 20-24% of its heights beyond the limit and was refused ``no_knee``.
+    The refusal keeps the shape reading's words."""
+    if failure.reason not in SHAPE_REFUSALS or sections.largest_gap_deg is None or sections.gap_middle_rad is None:
+        return None
+    held = sections.coverage > 0
+    radius = sections.mean_radii()  # NaN where the section was not read (a cloud's open beyond the limit)
+    bound = arc_bridge_bound_mm(np.nan_to_num(radius), np.minimum(sections.largest_gap_deg, MAX_GAP_DEG))
+    bridged = np.isfinite(sections.gap_middle_rad) & (sections.open_arcs() | (held & (bound > GIRTH_TOLERANCE_MM)))
+    share = float(bridged[held].mean()) if held.any() else 0.0
+    if share < ONE_SIDED_SHARE:
+        return None
+    if float(np.abs(np.exp(1j * sections.gap_middle_rad[bridged]).mean())) < SAME_DIRECTION:
+        return None
+    arcs = sections.largest_gap_deg[bridged]
+    return FitFailure(
+        FailureReason.PARTIAL_VIEW,
+        f"the leg's shape could not be read ({failure.reason.value}: {failure.detail.split('. ')[0]}), and at "
+        f"{share:.0%} of its heights an arc of {np.median(arcs):.0f} degrees (up to {arcs.max():.0f}) on the same "
+        "side of the leg holds no skin - a strip the scanner missed, or a view from one side. Bridged across such an "
+        f"arc a girth may be off by {np.median(bound[bridged]):.0f} mm or more, enough to hide an ankle or a knee "
+        "waist: scan all round the leg, or merge the scanner's views before exporting.")
+
+
 def without_open_arcs(sections: PolarSections) -> PolarSections:
     """A mesh's ``sections`` with those open by more than MAX_GAP_DEG made missing, as a
     cloud's are (app.geometry.sections.cloud): the mesh slicer bridges any gap its rays

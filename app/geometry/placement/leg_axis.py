@@ -28,7 +28,7 @@ from app.geometry.anatomy.landmark_refusals import failure_stage
 from app.geometry.anatomy.landmarks import find_feature_heights
 from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
-from app.geometry.placement.coverage import partial_view
+from app.geometry.placement.coverage import bridged_strip_refusal, partial_view
 from app.geometry.placement.first_axis import AXIS_TOLERANCE_DEG, first_axis, pca_samples
 from app.geometry.placement.knee_bend import keep_index, shank_runs
 from app.geometry.placement.leg_ends import landmarks_either_way, mirror_profile
@@ -164,15 +164,23 @@ def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
     one_sided = None if half_spaces else partial_view(sections)  # (a bent knee's cut opens sections by design)
     if one_sided is not None:  # before the landmarks: a missing arc reads as another shape
         raise one_sided
-    if up is not None:
-        feats = find_feature_heights(heights, girth, elongation=sections.elongations())
-    else:
-        feats, flipped = landmarks_either_way(heights, girth, sections.elongations())
-        if flipped:  # the scan's axis pointed towards the foot
-            axis = -axis
-            basis = cf.perpendicular_basis(axis, basis[1])
-            local = (points - centre) @ basis.T
-            heights, girth, sections = mirror_profile(heights, girth, sections)
+    try:
+        if up is not None:
+            feats, flipped = find_feature_heights(heights, girth, elongation=sections.elongations()), False
+        else:
+            feats, flipped = landmarks_either_way(heights, girth, sections.elongations())
+    except FitFailure as failure:
+        # a strip bridged at every height reads as another shape too (a cut knee's
+        # sections are open by design, as above)
+        strip = None if half_spaces else bridged_strip_refusal(failure, sections)
+        if strip is None:
+            raise
+        raise strip from failure
+    if flipped:  # the scan's axis pointed towards the foot
+        axis = -axis
+        basis = cf.perpendicular_basis(axis, basis[1])
+        local = (points - centre) @ basis.T
+        heights, girth, sections = mirror_profile(heights, girth, sections)
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 

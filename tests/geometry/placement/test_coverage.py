@@ -13,7 +13,7 @@ from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
 from app.geometry.garment.design import DesignInputs, design_stocking
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.measuring_points import chart_of_record
-from app.geometry.placement.coverage import arc_bridge_bound_mm, partial_view
+from app.geometry.placement.coverage import arc_bridge_bound_mm, bridged_strip_refusal, partial_view
 from app.geometry.scan.reader import load_scan
 from app.geometry.sections.polar import PolarSections, largest_gap, ray_angles
 from app.records.codec import record_from_fit
@@ -67,6 +67,27 @@ def test_open_sections_on_one_side_are_a_partial_view_and_scattered_ones_are_not
     assert partial_view(_sections(gaps, rng.uniform(0, 2 * np.pi, 100))) is None
     assert partial_view(_sections(np.full(100, 150.0), rng.uniform(0, 2 * np.pi, 100))) is not None
     assert partial_view(_sections(np.where(np.arange(100) < 20, 150.0, 20.0), one_side)) is None  # holes, a cut end
+
+
+def test_a_shape_refusal_read_through_a_strip_on_one_side_names_the_strip():
+    """No knee waist found on a profile whose sections all miss 90 degrees on one side (below
+    the partial-view limit, but a bridge that may move a 50 mm section's girth by 35 mm):
+    the strip is named, with the shape reading's words; scattered gaps of the same size,
+    a strip at a fifth of the heights, narrow gaps (a 30-degree bridge moves the girth by
+    about 1 mm) and a refusal that is not about the leg's shape keep their refusal."""
+    rng = np.random.default_rng(5)
+    no_knee = FitFailure(FailureReason.NO_KNEE, "the knee waist is not in the scan. Re-scan above the knee.")
+    one_side = rng.normal(1.0, 0.3, 100)
+    assert partial_view(_sections(np.full(100, 90.0), one_side)) is None  # within the limit
+    named = bridged_strip_refusal(no_knee, _sections(np.full(100, 90.0), one_side))
+    assert named is not None and named.reason is FailureReason.PARTIAL_VIEW
+    assert "no_knee: the knee waist is not in the scan)" in named.detail and "100% of its heights" in named.detail
+    assert f"off by {arc_bridge_bound_mm(50.0, 90.0):.0f} mm" in named.detail
+    assert bridged_strip_refusal(no_knee, _sections(np.full(100, 90.0), rng.uniform(0, 2 * np.pi, 100))) is None
+    assert bridged_strip_refusal(no_knee, _sections(np.where(np.arange(100) < 20, 90.0, 0.0), one_side)) is None
+    assert bridged_strip_refusal(no_knee, _sections(np.full(100, 30.0), one_side)) is None
+    sparse = FitFailure(FailureReason.TOO_SPARSE, "too sparse")
+    assert bridged_strip_refusal(sparse, _sections(np.full(100, 90.0), one_side)) is None
 
 
 @pytest.fixture(scope="module")
