@@ -81,6 +81,25 @@ def test_a_pointed_foots_narrow_toes_are_not_the_ankle():
         find_feature_heights(z, girth)
 
 
+def test_a_toe_tips_partial_sections_at_the_scans_edge_do_not_hide_the_ankle():
+    """A whole leg read from the toe tip up, every 3 mm (benchmarks/chart_accuracy.py 8
+    17, leg 7, a cloud with stray points, its profile's first 6 sections as measured):
+    partial sections of the toe tip, 100-140 mm round and not all elongated, make a local
+    minimum at the scan's edge far narrower than the ankle (233 mm, 120 mm up).  Too near
+    the edge to be B, it used to be taken as the narrowest minimum and then set aside,
+    and the ankle above it with it: no_ankle.  The ankle is B, as without the toe tip."""
+    z = np.arange(0.0, 760.0, 3.0)
+    girth = np.interp(z, [18, 24, 36, 60, 100, 120, 330, 470, 560, 760], [465, 427, 400, 345, 245, 233, 397, 320, 330, 570])
+    girth[:6] = [np.nan, 136.9, 114.1, 102.4, 110.1, 176.2]
+    elongation = np.interp(z, [15, 60, 100, 120, 330, 760], [1.7, 1.5, 1.26, 1.15, 1.04, 1.07])
+    elongation[:6] = [1.29, 1.45, 1.25, 1.3, 1.15, 1.28]
+    found = find_feature_heights(z, girth, elongation=elongation)
+    assert abs(found.b_mm - 120.0) <= 6.0 and abs(found.c_mm - 330.0) < 20.0 and 400.0 < found.d_mm < 560.0
+    edge = z >= 18.0
+    again = find_feature_heights(z[edge], girth[edge], elongation=elongation[edge])
+    assert (again.b_mm, again.c_mm, again.d_mm) == pytest.approx((found.b_mm, found.c_mm, found.d_mm))
+
+
 def test_a_calf_whose_crown_rises_over_three_bumps_is_read_at_the_highest():
     """Three calf maxima over one ankle and one knee waist, each higher than the one below
     (a calf bulge the scan left ribbed: the profile of a cloud missing a strip along the
