@@ -189,10 +189,10 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
     # partial section at the scan's edge - a toe tip a stray point or two made finite -
     # is a minimum too, and taken first it hid the ankle above it: a cloud with stray
     # points, benchmarks/chart_accuracy.py 8 17 leg 7, was refused no_ankle)
-    minima = [i for i in np.flatnonzero(below & local_min & ~profile.footlike)
-              if heights[i] - bottom >= INTERIOR_MARGIN_MM and _rises_below(heights, g, i)]
-    if minima:
-        ib = minima[int(np.argmin(g[minima]))]
+    ankles = [int(i) for i in np.flatnonzero(below & local_min & ~profile.footlike)
+              if heights[i] - bottom >= INTERIOR_MARGIN_MM and _rises_below(heights, g, int(i))]
+    if ankles:
+        ib = ankles[int(np.argmin(g[ankles]))]
     if ib is None:
         if heights[below][0] - bottom > 2 * spacing or not minimum_reached_at_edge(heights, raw, bottom, +1):
             return no_ankle(zc - bottom)
