@@ -238,3 +238,27 @@ def test_a_swollen_leg_without_a_calf_bulge_is_refused_saying_so():
         check_scan(scan, FitOptions(side="right"))
     assert caught.value.reason is FailureReason.NO_CALF
     assert "no calf bulge" in caught.value.detail and "by tape" in caught.value.detail, caught.value.detail
+
+
+def _two_legs(body) -> trimesh.Trimesh:
+    """The body cut 45% of its height above the soles: two legs joined at the hips (mm)."""
+    up = np.array([0.0, 1.0, 0.0])  # the Visible Human files stand along +y
+    sole = body.points_mm[:, 1].min()
+    return crop(trimesh.Trimesh(body.points_mm, body.faces, process=False),
+                np.array([0.0, sole + 0.45 * np.ptp(body.points_mm[:, 1]), 0.0]), -up)
+
+
+def test_a_stored_placement_finds_its_leg_whichever_half_it_names(female_body, tmp_path):
+    """The fit replays the upload check's placement; the two halves of a pair of legs come
+    in the order of the split's labels, which another release's split may turn round.
+    The half holding the placed ankle is the leg, whichever half the placement names."""
+    from app.geometry.placement.place import LegPlacement, replace_leg
+
+    body, _ = female_body
+    path = tmp_path / "two_legs.ply"
+    _two_legs(body).export(path)
+    scan = load_scan(path)
+    placement = check_scan(scan, FitOptions(side="left"))
+    assert placement.half in (0, 1)
+    turned = LegPlacement.from_dict({**placement.to_dict(), "half": 1 - placement.half})
+    assert np.array_equal(replace_leg(scan, turned).points, replace_leg(scan, placement).points)

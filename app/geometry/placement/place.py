@@ -409,6 +409,13 @@ def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     index = clean.pieces[placement.piece]
     points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
     if placement.half >= 0:
-        cut = _split(points, faces, clean.spacing_p95_mm)[placement.half]
+        cuts = _split(points, faces, clean.spacing_p95_mm)
+        if cuts is None:
+            raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
+        # the half holding the placed leg's ankle centre B: the halves come in the order
+        # of the split's 2-means labels, which a change of the split between the check
+        # and the fit (a release in between) may turn round
+        origin = np.asarray(placement.origin_mm, dtype=np.float64)
+        cut = min(cuts, key=lambda c: float(np.linalg.norm(points[c.point_index] - origin, axis=1).min(initial=np.inf)))
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
     return PlacedLeg(*clip_to_half_spaces(points, faces, placement.half_spaces), placement)
