@@ -8,8 +8,8 @@ is plain, serialisable data that an upload check hands to the fit
 Steps (mm throughout):
 1. clean-up (:mod:`app.geometry.scan.cleanup`): floor or platform, spikes, stray pieces;
 2. candidate legs: each remaining piece; a whole body (longer than
-   :data:`app.geometry.placement.calf_frame.BODY_MIN_LENGTH_MM`) or two legs joined at the hips
-   (two shins side by side, :func:`app.geometry.placement.calf_frame.split_two_legs`) is cut into
+   :data:`app.geometry.placement.leg_pairs.BODY_MIN_LENGTH_MM`) or two legs joined at the hips
+   (two shins side by side, :func:`app.geometry.placement.leg_pairs.split_two_legs`) is cut into
    its legs;
 3. each candidate is placed by :func:`app.geometry.placement.leg_axis.place_candidate`: the
    shank's axis (for a bent knee, cut free of the thigh), B, C, D along it, anterior;
@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import trimesh
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -34,8 +33,9 @@ from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
+from app.geometry.placement.leg_pairs import split_legs
 from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
-from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan, point_spacing
+from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan
 from app.geometry.scan.reader import MIN_POINTS, Scan
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 
@@ -152,7 +152,7 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
     for piece, index in enumerate(clean.pieces):
         points = clean.points[index]
         faces = cf.submesh(index, clean.faces, len(clean.points))
-        cuts = _split(points, faces, clean.spacing_p95_mm)
+        cuts = split_legs(points, faces, clean.spacing_p95_mm)
         if cuts is None:
             out.append(_Candidate(points, faces, None, piece, -1, len(points)))
             continue
@@ -160,52 +160,6 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
             out.append(_Candidate(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)),
                                   cut.up, piece, half, len(cut.point_index)))
     return out
-
-
-#: a mesh whose vertices lie further apart than this (p95, mm) is split into its legs on
-#: points sampled on its triangles SPLIT_SAMPLE_SPACING_MM apart (:func:`_split`)
-SPLIT_SPARSE_VERTICES_MM = 5.0
-SPLIT_SAMPLE_SPACING_MM = 4.0
-#: ... at most this many (a body's skin, ~2 m^2, at 4 mm would be 125k)
-MAX_SPLIT_SAMPLES = 60_000
-
-
-def _split(points: np.ndarray, faces: np.ndarray | None, spacing_p95_mm: float | None = None):
-    """The legs of a whole body or of two legs joined at the hips; None for one leg.
-    points (n, 3) mm, faces (f, 3) or None; ``spacing_p95_mm``: the scan's point spacing
-    when the clean-up measured it (a cloud's).
-
-    The split finds the legs as separate blobs of occupied pixels in slabs across the
-    body, the pixel twice the points' spacing (p95) so that one leg's ring of points
-    stays one blob.  A mesh's ring is closed by its triangles, not by its vertices: a
-    coarse mesh's vertices lie 20-40 mm apart (edges up to 75 mm), and a pixel twice
-    that (41 mm on benchmarks/robustness.py 220 17, coarse_mesh-01, closed once more)
-    merges two shins standing 30-80 mm apart into one blob, so two legs were read as one
-    and refused as a partial view.  A mesh whose vertices lie more than
-    SPLIT_SPARSE_VERTICES_MM apart (p95; the pixel would pass its 10 mm floor) is split
-    on its vertices and points sampled on its triangles (trimesh.sample.sample_surface,
-    seeded: the same mesh splits alike when a placement is replayed), each vertex going
-    with the leg the split gives it."""
-    occupancy = points
-    if faces is not None and len(faces):
-        spacing_p95_mm = point_spacing(points, 95.0)
-        if spacing_p95_mm > SPLIT_SPARSE_VERTICES_MM:
-            mesh = trimesh.Trimesh(points, faces, process=False)
-            count = int(min(mesh.area / SPLIT_SAMPLE_SPACING_MM**2, MAX_SPLIT_SAMPLES))
-            occupancy = np.vstack([points, trimesh.sample.sample_surface(mesh, count, seed=0)[0]])
-            spacing_p95_mm = point_spacing(occupancy, 95.0)
-    split = cf.split_body_legs if _is_body(points) else cf.split_two_legs
-    cuts = split(occupancy, spacing_p95_mm)
-    if cuts is None or occupancy is points:
-        return cuts
-    return tuple(cf.LegCut(cut.point_index[cut.point_index < len(points)], cut.up) for cut in cuts)
-
-
-def _is_body(points: np.ndarray) -> bool:
-    """A whole body: longer than :data:`app.geometry.placement.calf_frame.BODY_MIN_LENGTH_MM` along
-    its main axis (PCA of a 20k-point subsample)."""
-    sample = points[:: max(len(points) // 20000, 1)]
-    return float(np.ptp(points @ cf.principal_axis(sample))) >= cf.BODY_MIN_LENGTH_MM
 
 
 def _sides_of(legs: list[tuple[_Candidate, LegPlacement]]) -> list[str]:
@@ -409,7 +363,7 @@ def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
     index = clean.pieces[placement.piece]
     points, faces = clean.points[index], cf.submesh(index, clean.faces, len(clean.points))
     if placement.half >= 0:
-        cuts = _split(points, faces, clean.spacing_p95_mm)
+        cuts = split_legs(points, faces, clean.spacing_p95_mm)
         if cuts is None:
             raise FitFailure(FailureReason.INVALID_OPTION, "the stored placement does not match this scan")
         # the half holding the placed leg's ankle centre B: the halves come in the order

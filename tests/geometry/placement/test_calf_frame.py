@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from app.geometry.placement.calf_frame import CalfFrame, perpendicular_basis, principal_axis, split_body_legs
+from app.geometry.placement.calf_frame import CalfFrame, perpendicular_basis, principal_axis
 
 
 def _tilted_cylinder(axis: np.ndarray, n: int = 20_000, seed: int = 1) -> np.ndarray:
@@ -41,20 +41,3 @@ def test_the_frame_matrix_undoes_to_calf_in_scan_units():
     local = frame.to_calf(points_mm)
     back = (frame.matrix() @ np.column_stack([local, np.ones(len(local))]).T).T[:, :3]
     assert np.allclose(back * 10.0, points_mm, atol=1e-9)
-
-
-def test_a_bodys_legs_are_cut_from_its_feet_end():
-    """Two parallel tubes (the legs, 800 mm) under one wide block (the trunk, 900 mm):
-    the two-blob end is the feet, the legs are cut apart at the mid-plane, up points to
-    the trunk."""
-    rng = np.random.default_rng(3)
-    legs = [np.column_stack([x + 60 * np.cos(t), 60 * np.sin(t), z]) for x in (-120.0, 120.0)
-            for t, z in [(rng.uniform(0, 2 * np.pi, 8000), rng.uniform(0, 800, 8000))]]
-    trunk = np.column_stack([rng.uniform(-200, 200, 12000), rng.uniform(-120, 120, 12000), rng.uniform(800, 1700, 12000)])
-    body = np.vstack([*legs, trunk])
-    first, second = split_body_legs(body, spacing_p95_mm=8.0)
-    assert first.up @ np.array([0.0, 0.0, 1.0]) > 0.99
-    sides = {float(np.sign(body[cut.point_index, 0].mean())) for cut in (first, second)}
-    assert sides == {-1.0, 1.0}
-    for cut in (first, second):
-        assert body[cut.point_index, 2].min() < 50.0
