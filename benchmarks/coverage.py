@@ -1,7 +1,9 @@
 """A leg the scanner did not see all round: what the service answers.
 
 Run:  .venv/bin/python benchmarks/coverage.py [LEGS] [SEED]   (default 20 23)
-Writes benchmarks/results/coverage.md and coverage.json.
+      .venv/bin/python benchmarks/coverage.py --rewrite [SEED]   (the md from the JSON)
+Writes benchmarks/results/coverage.md and coverage.json; with another seed than the
+default 23 (a hold-out), coverage-seedN.md and coverage-seedN.json.
 
 Each of LEGS generated whole legs (an ANSUR II subject's MakeHuman leg with its foot,
 benchmarks/corpus, in millimetres) is scanned clean as a mesh - the reference - and again
@@ -40,6 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.corpus import degrade  # noqa: E402
 from benchmarks.corpus.makehuman import ansur_subjects  # noqa: E402
 from benchmarks.motion import as_cloud, clean_leg, kind_summary, read  # noqa: E402
+from benchmarks.provenance import environment, environment_line  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results"
 GIRTHS = ("cB", "cB1", "cC", "cD")
@@ -140,11 +143,17 @@ def main(legs: int = 20, seed: int = 23) -> dict:
             print(f"leg {leg} {kind} {what}: {got['outcome']} "
                   + " ".join(f"{g}{e:+.1f}" for g, e in verdict["errors"].items())
                   + f" said {len(verdict['said'])} {'ok' if verdict['right'] else 'WRONG'}", file=sys.stderr)
-    summary = {"legs": legs, "seed": seed, "seconds": time.perf_counter() - started, "rows": rows}
+    summary = {"environment": environment(), "legs": legs, "seed": seed, "seconds": time.perf_counter() - started,
+               "rows": rows}
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "coverage.json").write_text(json.dumps(summary, indent=1))
+    (RESULTS / f"{_stem(seed)}.json").write_text(json.dumps(summary, indent=1))
     write(summary)
     return summary
+
+
+def _stem(seed: int) -> str:
+    """The results' file name: coverage for the default seed, coverage-seedN for a hold-out."""
+    return "coverage" if seed == 23 else f"coverage-seed{seed}"
 
 
 def _strip_width(row: dict) -> float | None:
@@ -159,6 +168,8 @@ def write(summary: dict) -> None:
         f"and as each kind below; {summary['seconds']:.0f} s.  Right: refused as partial_view, or fitted with cB, cB1, "
         f"cC, cD within {OFF_MM:g} mm of the clean mesh's, or fitted with a warning that the skin misses an arc or "
         "the surface stands off it.",
+        "",
+        environment_line(summary.get("environment")),
         "",
         "| kind | strip width deg | scans | outcomes | fitted: girths p50 / p95 / max mm | fitted > 3 mm off | of them "
         "warned | right |",
@@ -181,8 +192,11 @@ def write(summary: dict) -> None:
         worst = max(r["errors"].items(), key=lambda item: abs(item[1]), default=None)
         lines.append(f"- leg {r['leg']} {r['kind']} ({r['what']}): {r['outcome']}"
                      + (f", {worst[0]} {worst[1]:+.1f} mm, no warning" if worst else f" ({(r['detail'] or '')[:110]})"))
-    (RESULTS / "coverage.md").write_text("\n".join(lines) + "\n")
+    (RESULTS / f"{_stem(summary['seed'])}.md").write_text("\n".join(lines) + "\n")
 
 
 if __name__ == "__main__":
-    main(*(int(a) for a in sys.argv[1:3]))
+    if sys.argv[1:2] == ["--rewrite"]:
+        write(json.loads((RESULTS / f"{_stem(int(sys.argv[2]) if len(sys.argv) > 2 else 23)}.json").read_text()))
+    else:
+        main(*(int(a) for a in sys.argv[1:3]))
