@@ -48,14 +48,25 @@ MOST_SHARE = 0.75
 BRIDGE_READ_MM = 4.0
 
 
+def _share_and_side(sections: PolarSections, gapped: np.ndarray) -> tuple[float, bool]:
+    """The share of the sections holding skin that are ``gapped`` (k,) bool, and whether
+    their gaps point the same way (Rayleigh's mean resultant length of the gaps'
+    directions at least SAME_DIRECTION; module docstring).  Needs ``gap_middle_rad``."""
+    held = sections.coverage > 0
+    share = float(gapped[held].mean()) if held.any() else 0.0
+    assert sections.gap_middle_rad is not None
+    same_side = bool(gapped.any()) and float(np.abs(np.exp(1j * sections.gap_middle_rad[gapped]).mean())) >= SAME_DIRECTION
+    return share, same_side
+
+
 def partial_view(sections: PolarSections) -> FitFailure | None:
     """The refusal of a leg seen from one side (module docstring), or None."""
-    held = sections.coverage > 0
-    open_arc = sections.open_arcs()
-    share = float(open_arc[held].mean()) if held.any() else 0.0
-    if share < ONE_SIDED_SHARE or sections.gap_middle_rad is None:
+    if sections.gap_middle_rad is None:
         return None
-    same_side = float(np.abs(np.exp(1j * sections.gap_middle_rad[open_arc]).mean())) >= SAME_DIRECTION
+    open_arc = sections.open_arcs()
+    share, same_side = _share_and_side(sections, open_arc)
+    if share < ONE_SIDED_SHARE:
+        return None
     if not same_side and share < MOST_SHARE:
         return None
     assert sections.largest_gap_deg is not None  # open_arcs is all False without it
@@ -99,10 +110,8 @@ def bridged_strip_refusal(failure: FitFailure, sections: PolarSections) -> FitFa
     radius = sections.mean_radii()  # NaN where the section was not read (a cloud's open beyond the limit)
     bound = arc_bridge_bound_mm(np.nan_to_num(radius), np.minimum(sections.largest_gap_deg, MAX_GAP_DEG))
     bridged = np.isfinite(sections.gap_middle_rad) & (sections.open_arcs() | (held & (bound > GIRTH_TOLERANCE_MM)))
-    share = float(bridged[held].mean()) if held.any() else 0.0
-    if share < ONE_SIDED_SHARE:
-        return None
-    if float(np.abs(np.exp(1j * sections.gap_middle_rad[bridged]).mean())) < SAME_DIRECTION:
+    share, same_side = _share_and_side(sections, bridged)
+    if share < ONE_SIDED_SHARE or not same_side:
         return None
     arcs = sections.largest_gap_deg[bridged]
     return FitFailure(
