@@ -231,7 +231,13 @@ def split_legs(points: np.ndarray, faces: np.ndarray | None, spacing_p95_mm: flo
     SPLIT_SPARSE_VERTICES_MM apart (p95; the pixel would pass its 10 mm floor) is split
     on its vertices and points sampled on its triangles (trimesh.sample.sample_surface,
     seeded: the same mesh splits alike when a placement is replayed), each vertex going
-    with the leg the split gives it."""
+    with the leg the split gives it.  A piece shorter than TWO_LEG_MIN_LENGTH_MM along its
+    main axis (PCA of a 20k-point subsample) is one leg, measured before any spacing (a
+    knee-high scan's mesh is not searched for a pair); one longer than
+    BODY_MIN_LENGTH_MM is a whole body."""
+    length = float(np.ptp(points @ principal_axis(points[:: max(len(points) // 20000, 1)]))) if len(points) else 0.0
+    if length < TWO_LEG_MIN_LENGTH_MM:
+        return None
     occupancy = points
     if faces is not None and len(faces):
         spacing_p95_mm = point_spacing(points, 95.0)
@@ -240,15 +246,8 @@ def split_legs(points: np.ndarray, faces: np.ndarray | None, spacing_p95_mm: flo
             count = int(min(mesh.area / SPLIT_SAMPLE_SPACING_MM**2, MAX_SPLIT_SAMPLES))
             occupancy = np.vstack([points, trimesh.sample.sample_surface(mesh, count, seed=0)[0]])
             spacing_p95_mm = point_spacing(occupancy, 95.0)
-    split = split_body_legs if is_body(points) else split_two_legs
+    split = split_body_legs if length >= BODY_MIN_LENGTH_MM else split_two_legs
     cuts = split(occupancy, spacing_p95_mm)
     if cuts is None or occupancy is points:
         return cuts
     return tuple(LegCut(cut.point_index[cut.point_index < len(points)], cut.up) for cut in cuts)
-
-
-def is_body(points: np.ndarray) -> bool:
-    """A whole body: longer than :data:`app.geometry.placement.calf_frame.BODY_MIN_LENGTH_MM` along
-    its main axis (PCA of a 20k-point subsample)."""
-    sample = points[:: max(len(points) // 20000, 1)]
-    return float(np.ptp(points @ principal_axis(sample))) >= BODY_MIN_LENGTH_MM
