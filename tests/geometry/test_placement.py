@@ -70,17 +70,21 @@ def test_a_bodys_vertices_as_a_cloud_fit(female_body, tmp_path):
     assert any("sparse" in w for w in fit.warnings)
 
 
+def _two_legs(body) -> trimesh.Trimesh:
+    """The body cut 45% of its height above the soles: two legs joined at the hips (mm)."""
+    up = np.array([0.0, 1.0, 0.0])  # the Visible Human files stand along +y
+    sole = body.points_mm[:, 1].min()
+    return crop(trimesh.Trimesh(body.points_mm, body.faces, process=False),
+                np.array([0.0, sole + 0.45 * np.ptp(body.points_mm[:, 1]), 0.0]), -up)
+
+
 @pytest.mark.parametrize("turned", [False, True])
 def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path, turned):
     """The body cut 45% of its height above the soles (feet to hips, two legs joined at
     the top) pairs up from both ends - shins at one, thighs at the other; its feet end
     is the thinner one, whichever way up the file stands, and the left calf is the body's."""
     body, full = female_body
-    vertices = body.points_mm
-    up = np.array([0.0, 1.0, 0.0])  # the Visible Human files stand along +y
-    sole = vertices[:, 1].min()
-    cut = crop(trimesh.Trimesh(vertices, body.faces, process=False),
-               np.array([0.0, sole + 0.45 * np.ptp(vertices[:, 1]), 0.0]), -up)
+    cut = _two_legs(body)
     if turned:  # upside down: the hips at the bottom of the file
         cut.apply_transform(trimesh.transformations.rotation_matrix(np.pi, [0.0, 0.0, 1.0]))
     path = tmp_path / "two_legs.ply"
@@ -238,14 +242,6 @@ def test_a_swollen_leg_without_a_calf_bulge_is_refused_saying_so():
         check_scan(scan, FitOptions(side="right"))
     assert caught.value.reason is FailureReason.NO_CALF
     assert "no calf bulge" in caught.value.detail and "by tape" in caught.value.detail, caught.value.detail
-
-
-def _two_legs(body) -> trimesh.Trimesh:
-    """The body cut 45% of its height above the soles: two legs joined at the hips (mm)."""
-    up = np.array([0.0, 1.0, 0.0])  # the Visible Human files stand along +y
-    sole = body.points_mm[:, 1].min()
-    return crop(trimesh.Trimesh(body.points_mm, body.faces, process=False),
-                np.array([0.0, sole + 0.45 * np.ptp(body.points_mm[:, 1]), 0.0]), -up)
 
 
 def test_a_stored_placement_finds_its_leg_whichever_half_it_names(female_body, tmp_path):
