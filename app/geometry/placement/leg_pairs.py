@@ -48,6 +48,65 @@ def _slab_blob_count(points_2d: np.ndarray, pixel_mm: float = 10.0) -> int:
     return int((sizes >= max(3, 0.05 * sizes.max())).sum())
 
 
+#: two touching legs: the section's depth across the line through the two lobes at the
+#: point midway between them, against the mean depth through the lobes' centres, is
+#: below this (a convex section's is at least 1: its chords in one direction have a
+#: concave length along the line, Brunn-Minkowski in the plane)
+TOUCHING_WAIST_RATIO = 0.7
+#: ... and each lobe is a leg's ring round its centre: no gap in the directions of its
+#: points seen from its centre wider than this (the half of one ring spans 226 degrees
+#: from its centroid, a gap of 134; a leg pressed on the other misses its contact, a
+#: 60-degree arc where it is pressed flat over half its diameter)
+LOBE_MAX_GAP_DEG = 110.0
+
+
+def _two_touching_lobes(points_2d: np.ndarray, band_mm: float) -> bool:
+    """Whether a slab's (n, 2) points (mm) are two legs' sections that touch: two lobes
+    side by side with a waist between them.
+
+    The points are halved across their principal direction at the mean; the lobes are
+    the halves, of comparable size (the smaller at least 30% of the larger, as the
+    blobs).  The depth of the section across that direction (the spread of the points
+    within ``band_mm`` of a position along it) midway between the lobes' centres is
+    under TOUCHING_WAIST_RATIO of the mean depth through the centres, with points on
+    both sides of the line (a view from one side, a C, has its middle on one side only)
+    or none at all (air narrower than the blobs' pixel),
+    and each lobe surrounds its own centre (no angular gap over LOBE_MAX_GAP_DEG): one
+    section of one leg, even elongated or seen from one side, is not two lobes.
+    """
+    if len(points_2d) < 40:
+        return False
+    centred = points_2d - points_2d.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred[:: max(len(centred) // 5000, 1)], full_matrices=False)
+    along, across = centred @ vt[0], centred @ vt[1]
+    halves = [along < 0, along >= 0]
+    sizes = np.array([h.sum() for h in halves])
+    if sizes.min() < 0.3 * sizes.max():
+        return False
+    centres = [np.array([along[h].mean(), across[h].mean()]) for h in halves]
+    middle = 0.5 * (centres[0] + centres[1])
+
+    def depth(at: float) -> np.ndarray:
+        return across[np.abs(along - at) <= band_mm]
+
+    waist = depth(middle[0])
+    through = [depth(c[0]) for c in centres]
+    if min(len(t) for t in through) < 3:
+        return False
+    if len(waist):  # (none: air between the lobes, closer than the blobs' pixel)
+        line = middle[1]
+        if not ((waist < line).any() and (waist > line).any()):
+            return False
+        if np.ptp(waist) >= TOUCHING_WAIST_RATIO * np.mean([np.ptp(t) for t in through]):
+            return False
+    for half, centre in zip(halves, centres):
+        angles = np.sort(np.arctan2(across[half] - centre[1], along[half] - centre[0]))
+        gaps = np.diff(np.r_[angles, angles[0] + 2 * np.pi])
+        if np.degrees(gaps.max()) > LOBE_MAX_GAP_DEG:
+            return False
+    return True
+
+
 #: two legs side by side: at least this share of the slabs 10-50% of the length from
 #: the feet end hold two blobs of comparable size (the smaller at least 30% of the larger)
 TWO_LEG_SLAB_SHARE = 0.7
@@ -108,19 +167,24 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
     if spacing_p95_mm is None:
         spacing_p95_mm = point_spacing(points_mm, 95.0)
     pixel = max(10.0, 2.0 * spacing_p95_mm)
-    shares, pair_sizes = [], []
+    band = max(3.0, spacing_p95_mm)
+    shares, pair_sizes, touching = [], [], []
     for sign in (1.0, -1.0):
-        pairs, sizes_near = 0, []
+        pairs, sizes_near, touches = 0, [], 0
         fractions = np.linspace(0.10, 0.50, 9)
         for f in fractions:
             level = lo + f * length if sign > 0 else hi - f * length
-            sizes = _slab_blob_sizes(local[(h >= level - 10.0) & (h < level + 10.0), :2], pixel)
+            slab = local[(h >= level - 10.0) & (h < level + 10.0), :2]
+            sizes = _slab_blob_sizes(slab, pixel)
             paired = sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0]
+            if not paired and sizes.size and _two_touching_lobes(slab, band):
+                paired, touches = True, touches + 1
             pairs += int(paired)
             if paired and f <= 0.30:
-                sizes_near.append(sizes[0] + sizes[1])
+                sizes_near.append(sizes[:2].sum())
         shares.append(pairs / len(fractions))
         pair_sizes.append(float(np.mean(sizes_near)) if sizes_near else np.inf)
+        touching.append(touches > 0)
     if max(shares) < TWO_LEG_SLAB_SHARE:
         return None
     # the feet end: two legs joined at the hips pair up from both ends (shins at one,
@@ -132,7 +196,9 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
     else:
         sign = 1.0 if shares[0] >= shares[1] else -1.0
     height = (h - lo) if sign > 0 else (hi - h)
-    side_coord = _shin_side_coordinate(local, (height > 0.10 * length) & (height < 0.40 * length), True)
+    # shins that touch have no air between them: their slabs' waists told them apart
+    apart = not touching[0 if sign > 0 else 1]
+    side_coord = _shin_side_coordinate(local, (height > 0.10 * length) & (height < 0.40 * length), apart)
     if side_coord is None:
         return None
     # two legs are both (nearly) the length of the scan; a foot beside a shin is not

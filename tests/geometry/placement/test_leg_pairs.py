@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import trimesh
 
-from app.geometry.placement.leg_pairs import split_body_legs, split_legs
+from app.geometry.placement.leg_pairs import _two_touching_lobes, split_body_legs, split_legs
 
 
 def test_a_bodys_legs_are_cut_from_its_feet_end():
@@ -48,3 +48,61 @@ def test_a_coarse_meshs_two_legs_are_cut_apart_on_its_triangles():
     first, second = len(legs[0].vertices), len(legs[0].vertices) + len(legs[1].vertices)
     assert len(set(owner[:first])) == 1 and len(set(owner[first:second])) == 1
     assert owner[0] != owner[first] and (owner >= 0).all()
+
+
+def _ring(centre_x: float, radius: float, angles: np.ndarray) -> np.ndarray:
+    return np.column_stack([centre_x + radius * np.cos(angles), radius * np.sin(angles)])
+
+
+def _tube(section: np.ndarray, length_mm: float, rings: int) -> np.ndarray:
+    """(rings * len(section), 3): the 2-D ``section`` repeated every length / rings mm."""
+    z = np.repeat(np.linspace(0.0, length_mm, rings), len(section))
+    return np.column_stack([np.tile(section, (rings, 1)), z])
+
+
+def test_touching_lobes_are_two_legs_and_a_convex_or_open_section_is_not():
+    """A slab of two legs that touch: two rings 50 mm round whose centres are 96 mm apart,
+    as the skins of a generator cross (each ring whole) and as a scanner sees a pair pressed
+    together (the union's outline, the contact missing); both are two lobes.  One leg is
+    not: an ellipse twice as wide as deep (its chords' length along its long axis is
+    concave, no waist), a ring seen from one side (a C missing 110 degrees, its middle on
+    one side only), half a ring."""
+    t = np.linspace(0.0, 2 * np.pi, 400, endpoint=False)
+    crossing = np.vstack([_ring(-48.0, 50.0, t), _ring(48.0, 50.0, t)])
+    left, right = _ring(-48.0, 50.0, t), _ring(48.0, 50.0, t)
+    outline = np.vstack([left[np.hypot(left[:, 0] - 48.0, left[:, 1]) > 50.0],
+                         right[np.hypot(right[:, 0] + 48.0, right[:, 1]) > 50.0]])
+    assert _two_touching_lobes(crossing, 3.0)
+    assert _two_touching_lobes(outline, 3.0)
+    ellipse = np.column_stack([100.0 * np.cos(t), 50.0 * np.sin(t)])
+    seen_from_one_side = _ring(0.0, 55.0, t[(t > np.radians(55)) & (t < np.radians(305))] + np.pi / 2)
+    half = _ring(0.0, 55.0, t[t < np.pi])
+    for one_leg in (ellipse, seen_from_one_side, half):
+        assert not _two_touching_lobes(one_leg, 3.0)
+
+
+def test_two_legs_that_touch_are_cut_apart_at_their_contact():
+    """Two tubes 800 mm long and 100 mm wide whose sections touch (centres 96 mm apart,
+    seen as their union's outline: no air between them, one blob per slab) under a
+    block (the hips): cut apart, each tube's points on its own side of the contact; a single tube of
+    the pair's width (an ellipse) is one leg."""
+    t = np.linspace(0.0, 2 * np.pi, 120, endpoint=False)
+    left, right = _ring(-48.0, 50.0, t), _ring(48.0, 50.0, t)
+    legs = [_tube(left[np.hypot(left[:, 0] - 48.0, left[:, 1]) > 50.0], 800.0, 200),
+            _tube(right[np.hypot(right[:, 0] + 48.0, right[:, 1]) > 50.0], 800.0, 200)]
+    rng = np.random.default_rng(4)
+    hips = np.column_stack([rng.uniform(-110, 110, 6000), rng.uniform(-55, 55, 6000), rng.uniform(800, 950, 6000)])
+    pair = np.vstack([*legs, hips])
+    cuts = split_legs(pair, None)
+    assert cuts is not None
+    owner = np.full(len(pair), -1)
+    for k, cut in enumerate(cuts):
+        owner[cut.point_index] = k
+    n = len(legs[0])
+    # every point off the contact with its own tube (the contact's own points, within
+    # 5 mm of the mid-plane, may go either way: they are both legs' skin)
+    off_contact = np.abs(pair[:, 0]) > 5.0
+    first, second = owner[:n][off_contact[:n]], owner[n:2 * n][off_contact[n:2 * n]]
+    assert len(set(first)) == 1 and len(set(second)) == 1 and first[0] != second[0]
+    ellipse = _tube(np.column_stack([98.0 * np.cos(t), 50.0 * np.sin(t)]), 800.0, 200)
+    assert split_legs(np.vstack([ellipse, hips]), None) is None
