@@ -231,6 +231,42 @@ def sized_legs(subject: dict, rng: np.random.Generator, knee_flexion_deg: float 
     return GeneratedLegs(np.asarray(vertices), np.asarray(faces, dtype=np.int64), joints, subject, sliders)
 
 
+#: an adducted leg turns by the full angle this far below its hip joint and not at all
+#: at the joint, a smoothstep between: the crotch, 30-50 mm below the joints, barely moves
+ADDUCTION_BLEND_MM = 150.0
+
+
+def adduct(vertices_mm: np.ndarray, mask: np.ndarray, hip: np.ndarray, angle_deg: float,
+           blend_mm: float = ADDUCTION_BLEND_MM) -> np.ndarray:
+    """Turn the masked vertices about the anterior (z) axis through the hip joint ``hip``
+    (3,): those ``blend_mm`` or more below the joint by ``angle_deg`` (positive moves
+    what lies below towards +x), those at or above it not at all.  A one-joint linear
+    blend, as :func:`rotate_below` bends the knee.  vertices_mm (n, 3), mask (n,) bool
+    -> (n, 3)."""
+    rel = vertices_mm - hip
+    theta = np.radians(angle_deg) * _smoothstep(-rel[:, 1] / blend_mm) * mask
+    c, s = np.cos(theta), np.sin(theta)
+    out = vertices_mm.copy()
+    out[:, 0] = hip[0] + c * rel[:, 0] - s * rel[:, 1]
+    out[:, 1] = hip[1] + s * rel[:, 0] + c * rel[:, 1]
+    return out
+
+
+def adduct_legs(legs: GeneratedLegs, angle_deg: float) -> GeneratedLegs:
+    """Both legs turned towards each other by ``angle_deg`` about their hip joints
+    (:func:`adduct`; the joints below go with them).  MakeHuman stands with its ankles
+    ~330 mm apart; a patient at a scanner often stands with the feet together, and at
+    some angle (about 10 degrees) the knees or ankles meet.  Past it the generator's
+    skins pass into each other where a body's would press flat."""
+    vertices, joints = legs.vertices, dict(legs.joints)
+    for prefix, sign in (("l", 1.0), ("r", -1.0)):
+        hip = joints[f"{prefix}-upper-leg"]
+        vertices = adduct(vertices, vertices[:, 0] * sign > 0, hip, -sign * angle_deg)
+        for name in (f"{prefix}-knee", f"{prefix}-ankle", f"{prefix}-foot-1", f"{prefix}-foot-2"):
+            joints[name] = adduct(joints[name][None], np.ones(1, bool), hip, -sign * angle_deg)[0]
+    return GeneratedLegs(vertices, legs.faces, joints, legs.subject, legs.sliders)
+
+
 def _plantar_flex(skin: np.ndarray, leg: np.ndarray, joints: dict, prefix: str, angle_deg: float) -> np.ndarray:
     """Turn the foot (toes down) about the ankle joint, blended 25 mm along the shank."""
     ankle, knee = joints[f"{prefix}-ankle"], joints[f"{prefix}-knee"]
