@@ -168,36 +168,42 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
         spacing_p95_mm = point_spacing(points_mm, 95.0)
     pixel = max(10.0, 2.0 * spacing_p95_mm)
     band = max(3.0, spacing_p95_mm)
-    shares, pair_sizes, touching = [], [], []
-    for sign in (1.0, -1.0):
-        pairs, sizes_near, touches = 0, [], 0
-        fractions = np.linspace(0.10, 0.50, 9)
-        for f in fractions:
+    fractions = np.linspace(0.10, 0.50, 9)
+    # per end (the low end first) and slab: two blobs of comparable size, and (only
+    # looked for where there are not) two touching lobes
+    blobs, lobes, sizes_near = np.zeros((2, 9), bool), np.zeros((2, 9), bool), np.zeros((2, 9))
+    for end, sign in enumerate((1.0, -1.0)):
+        for k, f in enumerate(fractions):
             level = lo + f * length if sign > 0 else hi - f * length
             slab = local[(h >= level - 10.0) & (h < level + 10.0), :2]
             sizes = _slab_blob_sizes(slab, pixel)
-            paired = sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0]
-            if not paired and sizes.size and _two_touching_lobes(slab, band):
-                paired, touches = True, touches + 1
-            pairs += int(paired)
-            if paired and f <= 0.30:
-                sizes_near.append(sizes[:2].sum())
-        shares.append(pairs / len(fractions))
-        pair_sizes.append(float(np.mean(sizes_near)) if sizes_near else np.inf)
-        touching.append(touches > 0)
-    if max(shares) < TWO_LEG_SLAB_SHARE:
+            blobs[end, k] = sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0]
+            lobes[end, k] = not blobs[end, k] and sizes.size > 0 and _two_touching_lobes(slab, band)
+            sizes_near[end, k] = sizes[:2].sum() if sizes.size else 0
+    near = fractions <= 0.30
+    blob_shares = blobs.mean(axis=1)
+    if blob_shares.max() >= TWO_LEG_SLAB_SHARE:
+        shares, paired, apart = blob_shares, blobs, True
+    elif (blobs | lobes).mean(axis=1).min() >= TWO_LEG_SLAB_SHARE:
+        # legs that touch (feet together): no air between them, so the blobs merge; their
+        # slabs' waists tell them apart.  Both ends must pair then (the thighs too, air
+        # or a waist between them): one leg beside a thigh cut short pairs at the thighs'
+        # end only, and would be cut down the middle of its shin as if that were two
+        shares, paired, apart = (blobs | lobes).mean(axis=1), blobs | lobes, False
+    else:
         return None
+    pair_sizes = [float(sizes_near[end][paired[end] & near].mean()) if (paired[end] & near).any() else np.inf
+                  for end in (0, 1)]
     # the feet end: two legs joined at the hips pair up from both ends (shins at one,
     # thighs at the other), so the share alone cannot tell the ends; the shins and
     # ankles 10-30% from the feet are far thinner than the thighs 10-30% from the hips
     # (ankle girth ~220 mm, thigh ~550 mm)
-    if min(shares) >= TWO_LEG_SLAB_SHARE and np.isfinite(pair_sizes).all():
+    if shares.min() >= TWO_LEG_SLAB_SHARE and np.isfinite(pair_sizes).all():
         sign = 1.0 if pair_sizes[0] <= pair_sizes[1] else -1.0
     else:
         sign = 1.0 if shares[0] >= shares[1] else -1.0
     height = (h - lo) if sign > 0 else (hi - h)
-    # shins that touch have no air between them: their slabs' waists told them apart
-    apart = not touching[0 if sign > 0 else 1]
+    # (shins that touch have no air between them: their slabs' waists told them apart)
     side_coord = _shin_side_coordinate(local, (height > 0.10 * length) & (height < 0.40 * length), apart)
     if side_coord is None:
         return None
