@@ -11,8 +11,10 @@ from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, Foo
 #: how far a candidate got before it failed (higher is more informative)
 #: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
 #: whatever another axis or a bent knee's runs then find or miss is read off a half leg)
+#: (a bent knee's shank that showed its ankle and calf, its knee waist under the thigh,
+#: tells more than a knee waist missing from a straight reading)
 FAILURE_STAGE = {FailureReason.NOT_A_LEG: 0, FailureReason.NO_CALF: 0, FailureReason.NO_ANKLE: 1, FailureReason.NO_KNEE: 2,
-                 FailureReason.PARTIAL_VIEW: 3}
+                 FailureReason.KNEE_BENT: 2.5, FailureReason.PARTIAL_VIEW: 3}
 
 
 def failure_stage(failure: FitFailure) -> float:

@@ -20,14 +20,27 @@ module finds the shank's own axis and the half-spaces that keep only the shank:
    rejected: at 30-70 degrees that is at or below the knee waist, so measurable knee
    waists were refused.)
 
+Binned along the main axis, the centre line of a leg bent by 80-100 degrees follows
+neither limb: the main axis is then the L's diagonal, and each bin's centroid is the mean
+of a piece of shank and a piece of thigh.  When no run of that line places a calf,
+:func:`geodesic_shank_runs` bins the surface by its distance *along the surface* from
+one end of the leg instead (level sets of the geodesic distance are the limb's cross
+sections whatever its bend: Lazarus and Verroust, "Level set diagrams of polyhedral
+objects", ACM Solid Modeling 1999), measured on the graph of each sample's nearest
+neighbours (scipy.sparse.csgraph.dijkstra), and splits that line the same way.
+
 Units: mm; points (n, 3) in the scan's mm frame.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components, dijkstra
+from scipy.spatial import cKDTree
 
 from app.geometry.placement.calf_frame import principal_axis
 
@@ -40,6 +53,9 @@ MIN_RUN_MM = 200.0
 #: bends smaller than this are a straight leg (a 10 degree bend moves the knee plane by
 #: R tan 5 deg ~ 5 mm at the shank's surface; a standing leg is never cut), degrees
 MIN_FLEXION_DEG = 10.0
+#: the geodesic centre line: at most this many samples, each joined to this many nearest
+GEODESIC_SAMPLES = 8000
+GEODESIC_NEIGHBOURS = 8
 
 
 @dataclass(frozen=True)
@@ -50,6 +66,8 @@ class ShankRun:
 
     direction: np.ndarray
     half_spaces: tuple = ()
+    #: the knee's flexion at the cut, degrees (0 without one)
+    flexion_deg: float = 0.0
 
 
 def _centre_line(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> np.ndarray:
@@ -101,17 +119,42 @@ def _knee_point(run: np.ndarray, other: np.ndarray) -> np.ndarray:
     return 0.5 * ((p + s * u) + (q + t * v))
 
 
-def _knee_cut(samples: np.ndarray, run: np.ndarray, other: np.ndarray) -> tuple:
-    """The half-space keeping the run of centroids ``run`` (b, 3, ordered towards the
+def _knee_cut(samples: np.ndarray, run: np.ndarray, other: np.ndarray) -> tuple[tuple, float]:
+    """The half-space (and the knee's flexion, degrees) keeping the run of centroids ``run`` (b, 3, ordered towards the
     knee) free of the limb ``other`` (ordered away from the knee) (module docstring,
     steps 2-3)."""
     start, beyond = run[0], other[-1]
     knee = _knee_point(run, other)
     u_run, u_next = _unit(knee - start), _unit(beyond - knee)
-    flexion = np.degrees(np.arccos(np.clip(u_run @ u_next, -1.0, 1.0)))
+    flexion = float(np.degrees(np.arccos(np.clip(u_run @ u_next, -1.0, 1.0))))
     if flexion < MIN_FLEXION_DEG:
-        return ()
-    return ((knee, _unit(u_run + u_next)),)
+        return (), 0.0
+    return ((knee, _unit(u_run + u_next)),), flexion
+
+
+def _geodesic_centre_line(samples: np.ndarray, weights: np.ndarray | None) -> np.ndarray:
+    """(b, 3) centroids of the bins of geodesic distance from one end of the leg (module
+    docstring), ordered from that end.  The end is the sample furthest along the surface
+    from an arbitrary one (a double sweep: a toe tip or the thigh's cut); the distance is
+    Dijkstra's on the graph joining each of at most GEODESIC_SAMPLES samples (s, 3) mm
+    to its GEODESIC_NEIGHBOURS nearest, over its largest connected part."""
+    stride = max(len(samples) // GEODESIC_SAMPLES, 1)
+    points = samples[::stride]
+    w = np.ones(len(points)) if weights is None else weights[::stride]
+    k = min(GEODESIC_NEIGHBOURS + 1, len(points))
+    distance, nearest = cKDTree(points).query(points, k=k)
+    rows = np.repeat(np.arange(len(points)), k - 1)
+    graph = csr_matrix((distance[:, 1:].ravel() + 1e-9, (rows, nearest[:, 1:].ravel())), shape=(len(points),) * 2)
+    _, part = connected_components(graph, directed=False)
+    largest = np.flatnonzero(part == np.bincount(part).argmax())
+    from_any = dijkstra(graph, directed=False, indices=int(largest[0]))
+    end = int(largest[np.argmax(from_any[largest])])
+    along = dijkstra(graph, directed=False, indices=end)[largest]
+    bins = np.floor(along / CENTRE_LINE_BIN_MM).astype(np.int64)
+    total = np.bincount(bins, weights=w[largest])
+    keep = total > 0.2 * np.median(total[total > 0])
+    sums = np.stack([np.bincount(bins, weights=w[largest] * points[largest, i]) for i in range(3)], 1)
+    return sums[keep] / total[keep, None]
 
 
 def shank_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> list[ShankRun]:
@@ -121,7 +164,30 @@ def shank_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray
     axis the centre line is binned along.  Runs shorter than :data:`MIN_RUN_MM` are left
     out.
     """
-    centres = _centre_line(samples, weights, axis)
+    return _runs_of(_centre_line(samples, weights, axis), samples)
+
+
+def geodesic_shank_runs(samples: np.ndarray, weights: np.ndarray | None) -> list[ShankRun]:
+    """:func:`shank_runs` of the geodesic centre line (module docstring): a leg bent
+    so far that its main axis is the diagonal of an L.  Only runs cut free of a limb at
+    a bend: a run without one is a straight leg's, which its main axis already read."""
+    return [run for run in _runs_of(_geodesic_centre_line(samples, weights), samples, whole_limbs=True)
+            if run.half_spaces]
+
+
+def bent_leg_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> Iterator[ShankRun]:
+    """The runs a bent leg's calf is looked for on, in turn: :func:`shank_runs`, then
+    :func:`geodesic_shank_runs` (computed only when the caller asks past the first)."""
+    yield from shank_runs(samples, weights, axis)
+    yield from geodesic_shank_runs(samples, weights)
+
+
+def _runs_of(centres: np.ndarray, samples: np.ndarray, whole_limbs: bool = False) -> list[ShankRun]:
+    """The runs of the centre line ``centres`` (b, 3), ordered along it.  With
+    ``whole_limbs`` (a geodesic centre line, which runs along the limbs in order), a run
+    without a long run on one side meets, as its knee's other limb, every centre past the
+    short run next to it (the bend), when those span MIN_RUN_MM: a thick thigh's
+    geodesic centre line bends near its source and is split into short runs."""
     runs = _straight_runs(centres)
     lengths = [float(np.linalg.norm(centres[j] - centres[i])) for i, j in runs]
     out: list[tuple[float, ShankRun]] = []
@@ -137,11 +203,18 @@ def shank_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray
         if after:
             a, b = runs[after[0]]
             joints.append((lengths[after[0]], centres[i : j + 1], centres[a : b + 1]))
+        elif whole_limbs and k + 2 < len(runs):  # the runs past the bend (the next one) as one limb
+            limb = centres[runs[k + 2][0] :]
+            joints.append((float(np.linalg.norm(limb[-1] - limb[0])), centres[i : j + 1], limb))
         if before:
             a, b = runs[before[-1]]
             joints.append((lengths[before[-1]], centres[i : j + 1][::-1], centres[a : b + 1][::-1]))
-        cut = _knee_cut(samples, *max(joints, key=lambda x: x[0])[1:]) if joints else ()
-        out.append((length, ShankRun(_unit(centres[j] - centres[i]), cut)))
+        elif whole_limbs and k >= 2:
+            limb = centres[: runs[k - 2][1] + 1]
+            joints.append((float(np.linalg.norm(limb[-1] - limb[0])), centres[i : j + 1][::-1], limb[::-1]))
+        joints = [joint for joint in joints if joint[0] >= MIN_RUN_MM]
+        cut, flexion = _knee_cut(samples, *max(joints, key=lambda x: x[0])[1:]) if joints else ((), 0.0)
+        out.append((length, ShankRun(_unit(centres[j] - centres[i]), cut, flexion)))
     return [run for _, run in sorted(out, key=lambda x: -x[0])]
 
 

@@ -30,7 +30,7 @@ from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_strip_refusal, partial_view
 from app.geometry.placement.first_axis import AXIS_TOLERANCE_DEG, first_axis, pca_samples
-from app.geometry.placement.knee_bend import keep_index, shank_runs
+from app.geometry.placement.knee_bend import bent_leg_runs, keep_index
 from app.geometry.placement.leg_ends import landmarks_either_way, mirror_profile
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
@@ -263,6 +263,30 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
+#: a knee bent this far (degrees, the centre lines' angle at the knee cut) hides its
+#: knee waist under the thigh when none is found above the calf
+HIDDEN_KNEE_FLEXION_DEG = 45.0
+
+
+def _hidden_knee_refusal(failure: FitFailure, run) -> FitFailure:
+    """A shank cut free of its thigh (``run``, a :class:`ShankRun` with a knee cut) whose
+    knee waist was not found above the calf: the thigh of a knee bent this far covers
+    it (benchmarks/robustness.py: seated legs bent 86-97 degrees), and the refusal says
+    so - ``knee_bent`` - rather than ask for a scan reaching higher, which the clinic
+    cannot give while the knee is bent.  Only for a knee bent by HIDDEN_KNEE_FLEXION_DEG
+    or more (a seated leg's; a standing leg's thigh leaves the shank's axis by less than
+    15): a shank cut at a slighter bend that misses its knee waist may well be a scan
+    that stops short of it.  Other failures pass unchanged."""
+    if failure.reason is not FailureReason.NO_KNEE or not run.half_spaces or run.flexion_deg < HIDDEN_KNEE_FLEXION_DEG:
+        return failure
+    return FitFailure(
+        FailureReason.KNEE_BENT,
+        f"the knee is bent by about {run.flexion_deg:.0f} degrees: cut free of the thigh, the shank shows its ankle "
+        "and calf but not the knee waist (D) above them, which the bent knee's thigh covers (read as "
+        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression stocking "
+        "is measured.")
+
+
 def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None) -> CalfAxis:
     """Axis, B/C/D, refined calf axis, anterior direction: one candidate leg's placement.
 
@@ -298,7 +322,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
         placed = _refine(_orient(points, faces, axis, basis, up), points, faces, samples, weights, ())
     except FitFailure as straight_failure:
         run_failures = [straight_failure]
-        for run in shank_runs(samples, weights, axis):
+        for run in bent_leg_runs(samples, weights, axis):
             run_basis = cf.perpendicular_basis(run.direction, basis[1])
             run_points, run_faces = clip_to_half_spaces(points, faces, run.half_spaces)
             kept = keep_index(samples, run.half_spaces)
@@ -307,7 +331,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
                 placed = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
                                  run_points, run_faces, run_samples, run_weights, run.half_spaces)
             except FitFailure as failure:
-                run_failures.append(failure)
+                run_failures.append(_hidden_knee_refusal(failure, run))
                 continue
             if isinstance(straight_failure, CalfWithoutBulge) and not placed.feats.on_foot:
                 # the straight leg stood on its foot without a calf bulge: a run with no
