@@ -8,6 +8,7 @@ issue's targets).
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
@@ -103,6 +104,35 @@ def test_a_leg_seated_with_its_thigh_in_the_calfs_planes_is_refused_for_its_bent
     result = run_case(case)
     assert result["outcome"] == "knee_bent", result.get("detail")
     assert "knee straight" in result["detail"]
+
+
+def test_a_knee_bent_to_an_l_is_followed_to_its_shank_and_refused_for_its_bent_knee():
+    """Knee bent 86 degrees (the 220-case corpus, seed 7, seated-01), foot to hip: the
+    main axis is the L's diagonal and its centre line follows neither limb, so the leg was
+    refused no_calf, "a foot, not a calf" of 929 mm girth.  Followed along the surface,
+    the shank is cut free of the thigh, shows its ankle and calf, and the knee waist the
+    thigh covers is named: knee_bent, asking for the leg straight."""
+    case = build_case({s.case_id: s for s in corpus_specs(220, 7)}["seated-01"])
+    assert case.truth.knee_hidden
+    result = run_case(case)
+    assert result["outcome"] == "knee_bent", result.get("detail")
+    assert "knee straight" in result["detail"]
+
+
+def test_two_legs_standing_feet_together_are_cut_apart_and_measured():
+    """A pair of legs turned about the hips until they touch below the knees, and 0.4
+    degrees further (their skins pass into each other, where a body's would press flat;
+    benchmarks/legs_together.py, pair 0 of seed 41, as a mesh and as a cloud): no air
+    between the shins, so the blobs of the two-leg split merged and the pair was refused
+    as a partial view of one leg.  Cut apart at their waists, the leg asked for is
+    measured within 2 mm."""
+    from benchmarks.legs_together import pair_cases
+
+    cases = {c.spec.case_id: c for c in pair_cases(0, np.random.default_rng(41))}
+    for case_id in ("pair00-pressed-mesh", "pair00-pressed-cloud"):
+        result = run_case(cases[case_id])
+        assert result["outcome"] == "fit", (case_id, result.get("detail"))
+        assert max(abs(e) for e in result["girth_error_mm"].values()) <= 2.0, (case_id, result["girth_error_mm"])
 
 
 @pytest.mark.parametrize("case_id", ["cut_below_knee-00", "cut_below_knee-03", "ankle_to_thigh-05"])
