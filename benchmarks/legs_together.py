@@ -35,6 +35,7 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from app.geometry.placement.place import TOUCHING_LEGS_WARNING  # noqa: E402
 from benchmarks.corpus import degrade  # noqa: E402
 from benchmarks.corpus.cases import Case, CaseSpec  # noqa: E402
 from benchmarks.corpus.evaluate import run_case  # noqa: E402
@@ -108,6 +109,7 @@ def judged(result: dict) -> dict:
         right = result["outcome"] in HONEST_REFUSALS
     return {"case": result["case"], "outcome": result["outcome"], "detail": result.get("detail"),
             "errors": {f"c{k}": round(v, 2) for k, v in errors.items()}, "warnings": result.get("warnings", []),
+            "said_touching": TOUCHING_LEGS_WARNING in (result.get("warnings") or []),
             "notes": result["notes"], "seconds": round(result["seconds"], 2), "right": bool(right)}
 
 
@@ -133,8 +135,8 @@ def write_markdown(rows: list[dict], legs: int, seed: int, env: dict, suffix: st
              f"{environment_line(env)} Reproduce: `.venv/bin/python benchmarks/legs_together.py {legs} {seed}`; "
              "the method is in the script's docstring.", "",
              "| pose | format | cases | fitted within 10 mm | refused (two legs, partial view) | wrong | outcomes "
-             "| girth error mm, abs p50 / p95 / max (fitted) |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| girth error mm, abs p50 / p95 / max (fitted) | said the legs touched |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for pose in POSES:
         for fmt in FORMATS:
             group = [r for r in rows if r["case"].endswith(f"-{pose}-{fmt}")]
@@ -149,7 +151,8 @@ def write_markdown(rows: list[dict], legs: int, seed: int, env: dict, suffix: st
             refused = sum(r["right"] and r["outcome"] != "fit" for r in group)
             lines.append(f"| {pose} (gap {min(gaps):.0f}-{max(gaps):.0f} mm) | {fmt} | {len(group)} | {fitted} | "
                          f"{refused} | {len(group) - fitted - refused} | "
-                         f"{', '.join(f'{k} {v}' for k, v in outcomes.items())} | {stats} |")
+                         f"{', '.join(f'{k} {v}' for k, v in outcomes.items())} | {stats} | "
+                         f"{sum(r.get('said_touching', False) for r in group)} |")
     wrong = [r for r in rows if not r["right"]]
     lines += ["", f"Fitted within {OFF_MM:g} mm: {sum(r['right'] and r['outcome'] == 'fit' for r in rows)} of "
               f"{len(rows)}; refused honestly: {sum(r['right'] and r['outcome'] != 'fit' for r in rows)}; "

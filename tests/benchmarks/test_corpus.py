@@ -13,6 +13,7 @@ import pytest
 
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
 from app.geometry.garment.measuring_points import chart_of_record
+from app.geometry.placement.place import TOUCHING_LEGS_WARNING
 from app.geometry.scan.reader import load_scan
 from app.records.codec import record_from_fit
 from benchmarks.corpus.cases import CaseSpec, build_case, corpus_specs
@@ -125,7 +126,7 @@ def test_two_legs_standing_feet_together_are_cut_apart_and_measured():
     benchmarks/legs_together.py, pair 0 of seed 41, as a mesh and as a cloud): no air
     between the shins, so the blobs of the two-leg split merged and the pair was refused
     as a partial view of one leg.  Cut apart at their waists, the leg asked for is
-    measured within 2 mm."""
+    measured within 2 mm, and the record says the legs touched."""
     from benchmarks.legs_together import pair_cases
 
     cases = {c.spec.case_id: c for c in pair_cases(0, np.random.default_rng(41))}
@@ -133,6 +134,7 @@ def test_two_legs_standing_feet_together_are_cut_apart_and_measured():
         result = run_case(cases[case_id])
         assert result["outcome"] == "fit", (case_id, result.get("detail"))
         assert max(abs(e) for e in result["girth_error_mm"].values()) <= 2.0, (case_id, result["girth_error_mm"])
+        assert TOUCHING_LEGS_WARNING in result["warnings"]
 
 
 @pytest.mark.parametrize("case_id", ["cut_below_knee-00", "cut_below_knee-03", "ankle_to_thigh-05"])

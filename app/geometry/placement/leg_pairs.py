@@ -212,15 +212,18 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
         if np.ptp(h[half]) < 0.6 * length:
             return None
     up = sign * basis[2]
-    return LegCut(np.flatnonzero(side_coord < 0), up), LegCut(np.flatnonzero(side_coord >= 0), up)
+    return (LegCut(np.flatnonzero(side_coord < 0), up, not apart),
+            LegCut(np.flatnonzero(side_coord >= 0), up, not apart))
 
 
 @dataclass(frozen=True)
 class LegCut:
-    """The vertices of one leg cut out of a body: ``point_index`` (n,), ``up`` (3,)."""
+    """The vertices of one leg cut out of a body: ``point_index`` (n,), ``up`` (3,);
+    ``touching``: the legs touched, and were told apart by their sections' waists."""
 
     point_index: np.ndarray
     up: np.ndarray
+    touching: bool = False
 
 
 def body_end_pixel(spacing_p95_mm: float) -> float:
@@ -322,4 +325,4 @@ def split_legs(points: np.ndarray, faces: np.ndarray | None, spacing_p95_mm: flo
     cuts = split(occupancy, spacing_p95_mm)
     if cuts is None or occupancy is points:
         return cuts
-    return tuple(LegCut(cut.point_index[cut.point_index < len(points)], cut.up) for cut in cuts)
+    return tuple(LegCut(cut.point_index[cut.point_index < len(points)], cut.up, cut.touching) for cut in cuts)

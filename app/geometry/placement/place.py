@@ -129,6 +129,13 @@ class PlacedLeg:
     placement: LegPlacement
 
 
+#: the record's warning for a leg cut from the other leg it touched in the scan
+TOUCHING_LEGS_WARNING = (
+    "the two legs touched in the scan (feet together): they were cut apart at the plane between them, and where "
+    "they touch this leg's girths are read across the contact, its skin pressed against the other leg; for a "
+    "made-to-measure order, scan with the feet apart")
+
+
 @dataclass(frozen=True)
 class _Candidate:
     points: np.ndarray
@@ -137,6 +144,8 @@ class _Candidate:
     piece: int
     half: int
     n_points: int = field(default=0)
+    #: cut from a leg it touched (:attr:`LegCut.touching`)
+    touching: bool = False
 
 
 def _placement_of(axis: CalfAxis, mm_per_unit: float) -> LegPlacement:
@@ -158,7 +167,7 @@ def _candidates(clean: CleanScan) -> list[_Candidate]:
             continue
         for half, cut in enumerate(cuts):
             out.append(_Candidate(points[cut.point_index], cf.submesh(cut.point_index, faces, len(points)),
-                                  cut.up, piece, half, len(cut.point_index)))
+                                  cut.up, piece, half, len(cut.point_index), cut.touching))
     return out
 
 
@@ -321,6 +330,8 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         pick = sides.index(side)
         candidate, placement = legs[pick]
         found, source = side, "body"
+    if candidate.touching:
+        warnings.append(TOUCHING_LEGS_WARNING)
     if placement.half_spaces:
         warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
                         "the knee angle, and measured only where that cut leaves its sections whole")

@@ -40,7 +40,7 @@ def test_a_coarse_meshs_two_legs_are_cut_apart_on_its_triangles():
     points, faces = np.asarray(pair.vertices), np.asarray(pair.faces)
     assert split_legs(points, None) is None
     cuts = split_legs(points, faces)
-    assert cuts is not None
+    assert cuts is not None and not any(cut.touching for cut in cuts)
     owner = np.full(len(points), -1)
     for k, cut in enumerate(cuts):
         assert cut.up @ np.array([0.0, 0.0, 1.0]) > 0.99
@@ -94,7 +94,7 @@ def test_two_legs_that_touch_are_cut_apart_at_their_contact():
     hips = np.column_stack([rng.uniform(-110, 110, 6000), rng.uniform(-55, 55, 6000), rng.uniform(800, 950, 6000)])
     pair = np.vstack([*legs, hips])
     cuts = split_legs(pair, None)
-    assert cuts is not None
+    assert cuts is not None and all(cut.touching for cut in cuts)
     owner = np.full(len(pair), -1)
     for k, cut in enumerate(cuts):
         owner[cut.point_index] = k
