@@ -146,6 +146,18 @@ def test_a_crop_names_what_is_really_missing(case_id):
     assert result["outcome"] == case.expect, result.get("detail")
 
 
+def test_a_straight_legs_crop_is_never_measured_on_a_shank_read_in_its_thigh():
+    """A straight leg cropped just below its ankle minimum (the 220-case corpus, seed 17,
+    ankle_to_thigh-04) that no main-axis reading places: its geodesic centre line bends 12
+    degrees at the knee, and read as a shank cut there, its thigh was fitted as a calf
+    110-183 mm off (a reading that fitted, not one that refused).  The geodesic line only
+    tells why a knee bent 45 degrees or more is refused; this crop keeps the refusal the
+    straight reading gave, its missing ankle."""
+    case = build_case({s.case_id: s for s in corpus_specs(220, 17)}["ankle_to_thigh-04"])
+    result = run_case(case)
+    assert result["outcome"] == "no_ankle", (result["outcome"], result.get("girth_error_mm"), result.get("detail"))
+
+
 def test_a_scan_cut_below_its_knee_waist_says_the_waist_may_be_thinner():
     """A leg cut 52 mm below its knee waist whose girth levels off into the cut (the
     robustness corpus's cut_below_knee-02, seed 7) is fitted with D at the scan's edge: its

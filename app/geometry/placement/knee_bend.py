@@ -27,14 +27,15 @@ of a piece of shank and a piece of thigh.  When no run of that line places a cal
 one end of the leg instead (level sets of the geodesic distance are the limb's cross
 sections whatever its bend: Lazarus and Verroust, "Level set diagrams of polyhedral
 objects", ACM Solid Modeling 1999), measured on the graph of each sample's nearest
-neighbours (scipy.sparse.csgraph.dijkstra), and splits that line the same way.
+neighbours (scipy.sparse.csgraph.dijkstra), and splits that line the same way: to tell
+why such a leg is refused (:func:`app.geometry.placement.leg_axis._seated_knee_refusals`),
+never to measure it.
 
 Units: mm; points (n, 3) in the scan's mm frame.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -173,13 +174,6 @@ def geodesic_shank_runs(samples: np.ndarray, weights: np.ndarray | None) -> list
     a bend: a run without one is a straight leg's, which its main axis already read."""
     return [run for run in _runs_of(_geodesic_centre_line(samples, weights), samples, whole_limbs=True)
             if run.half_spaces]
-
-
-def bent_leg_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> Iterator[ShankRun]:
-    """The runs a bent leg's calf is looked for on, in turn: :func:`shank_runs`, then
-    :func:`geodesic_shank_runs` (computed only when the caller asks past the first)."""
-    yield from shank_runs(samples, weights, axis)
-    yield from geodesic_shank_runs(samples, weights)
 
 
 def _runs_of(centres: np.ndarray, samples: np.ndarray, whole_limbs: bool = False) -> list[ShankRun]:
