@@ -28,14 +28,14 @@ one end of the leg instead (level sets of the geodesic distance are the limb's c
 sections whatever its bend: Lazarus and Verroust, "Level set diagrams of polyhedral
 objects", ACM Solid Modeling 1999), measured on the graph of each sample's nearest
 neighbours (scipy.sparse.csgraph.dijkstra), and splits that line the same way: to tell
-why such a leg is refused (:func:`app.geometry.placement.leg_axis._seated_knee_refusals`),
-never to measure it.
+why such a leg is refused (:func:`seated_knee_refusals`), never to measure it.
 
 Units: mm; points (n, 3) in the scan's mm frame.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +43,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
+from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement.calf_frame import principal_axis
 
 #: centre-line bins along the leg, and the straightness tolerance of a run, mm
@@ -57,6 +58,9 @@ MIN_FLEXION_DEG = 10.0
 #: the geodesic centre line: at most this many samples, each joined to this many nearest
 GEODESIC_SAMPLES = 8000
 GEODESIC_NEIGHBOURS = 8
+#: a knee bent this far (degrees, the centre lines' angle at the knee cut) hides its
+#: knee waist under the thigh when none is found above the calf
+HIDDEN_KNEE_FLEXION_DEG = 45.0
 
 
 @dataclass(frozen=True)
@@ -218,3 +222,56 @@ def keep_index(points: np.ndarray, half_spaces) -> np.ndarray:
     for point, normal in half_spaces:
         inside &= (points - np.asarray(point)) @ np.asarray(normal) <= 0.0
     return np.flatnonzero(inside)
+
+
+def hidden_knee_refusal(failure: FitFailure, run: ShankRun) -> FitFailure:
+    """A shank cut free of its thigh (``run``, with a knee cut) whose knee waist was not
+    found above the calf: the thigh of a knee bent this far covers it
+    (benchmarks/robustness.py: seated legs bent 86-97 degrees), and the refusal says so -
+    ``knee_bent`` - rather than ask for a scan reaching higher, which the clinic cannot
+    give while the knee is bent.  Only for a knee bent by HIDDEN_KNEE_FLEXION_DEG or more
+    (a seated leg's; a standing leg's thigh leaves the shank's axis by less than 15): a
+    shank cut at a slighter bend that misses its knee waist may well be a scan that stops
+    short of it.  Other failures pass unchanged."""
+    if failure.reason is not FailureReason.NO_KNEE or not run.half_spaces or run.flexion_deg < HIDDEN_KNEE_FLEXION_DEG:
+        return failure
+    return FitFailure(
+        FailureReason.KNEE_BENT,
+        f"the knee is bent by about {run.flexion_deg:.0f} degrees: cut free of the thigh, the shank shows its ankle "
+        "and calf but not the knee waist (D) above them, which the bent knee's thigh covers (read as "
+        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression stocking "
+        "is measured.")
+
+
+def seated_knee_refusals(samples: np.ndarray, weights: np.ndarray | None,
+                         place_run: Callable[[ShankRun], object]) -> list[FitFailure]:
+    """Why a leg no main-axis reading placed is a knee bent to an L, if it is one:
+    ``knee_bent`` refusals, one per run of the geodesic centre line
+    (:func:`geodesic_shank_runs` of samples (s, 3) mm, weights (s,) or None) cut free of a
+    limb bent HIDDEN_KNEE_FLEXION_DEG or more whose shank shows its ankle and calf -
+    ``place_run(run)`` places it, or raises FitFailure for its knee waist only; none for a
+    straight leg (its geodesic line bends 12 degrees at most on benchmarks/robustness.py
+    220 17: an ankle_to_thigh crop) or a shank that shows less.
+
+    Diagnosis only: a calf is never measured on a geodesic run.  It is the last resort
+    after readings that measure straight and bent legs right, and there a crop of a
+    straight leg was read as a shank in its thigh and fitted 110-183 mm off (seed 17
+    ankle_to_thigh-04; an earlier session's geodesic readings fitted two seated legs with
+    cD 14 and 24 mm off); a knee bent so far is measured straight, as RAL-GZ 387 measures."""
+    out = []
+    for run in geodesic_shank_runs(samples, weights):
+        if run.flexion_deg < HIDDEN_KNEE_FLEXION_DEG:
+            continue
+        try:
+            place_run(run)
+        except FitFailure as failure:
+            if failure.reason is FailureReason.NO_KNEE:
+                out.append(hidden_knee_refusal(failure, run))
+            continue
+        out.append(FitFailure(
+            FailureReason.KNEE_BENT,
+            f"the knee is bent by about {run.flexion_deg:.0f} degrees: along the leg's own axis no calf was found, "
+            "and the shank cut free of the thigh is not measured (a knee bent this far puts the thigh in the planes "
+            "across the calf and the knee waist). Scan the leg standing, or lying with the knee straight, as a "
+            "compression stocking is measured."))
+    return out

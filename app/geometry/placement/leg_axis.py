@@ -20,6 +20,7 @@ scan by :mod:`app.geometry.placement.place` - and returns a :class:`CalfAxis`, i
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -30,7 +31,7 @@ from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_strip_refusal, partial_view
 from app.geometry.placement.first_axis import AXIS_TOLERANCE_DEG, first_axis, pca_samples
-from app.geometry.placement.knee_bend import geodesic_shank_runs, keep_index, shank_runs
+from app.geometry.placement.knee_bend import hidden_knee_refusal, keep_index, seated_knee_refusals, shank_runs
 from app.geometry.placement.leg_ends import landmarks_either_way, mirror_profile
 from app.geometry.sections import PolarSections, polygon_centroid, slice_polar
 
@@ -263,66 +264,16 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
-#: a knee bent this far (degrees, the centre lines' angle at the knee cut) hides its
-#: knee waist under the thigh when none is found above the calf
-HIDDEN_KNEE_FLEXION_DEG = 45.0
-
-
-def _hidden_knee_refusal(failure: FitFailure, run) -> FitFailure:
-    """A shank cut free of its thigh (``run``, a :class:`ShankRun` with a knee cut) whose
-    knee waist was not found above the calf: the thigh of a knee bent this far covers
-    it (benchmarks/robustness.py: seated legs bent 86-97 degrees), and the refusal says
-    so - ``knee_bent`` - rather than ask for a scan reaching higher, which the clinic
-    cannot give while the knee is bent.  Only for a knee bent by HIDDEN_KNEE_FLEXION_DEG
-    or more (a seated leg's; a standing leg's thigh leaves the shank's axis by less than
-    15): a shank cut at a slighter bend that misses its knee waist may well be a scan
-    that stops short of it.  Other failures pass unchanged."""
-    if failure.reason is not FailureReason.NO_KNEE or not run.half_spaces or run.flexion_deg < HIDDEN_KNEE_FLEXION_DEG:
-        return failure
-    return FitFailure(
-        FailureReason.KNEE_BENT,
-        f"the knee is bent by about {run.flexion_deg:.0f} degrees: cut free of the thigh, the shank shows its ankle "
-        "and calf but not the knee waist (D) above them, which the bent knee's thigh covers (read as "
-        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression stocking "
-        "is measured.")
-
-
-def _seated_knee_refusals(points, faces, samples, weights, basis) -> list[FitFailure]:
-    """Why a leg no main-axis reading placed is a knee bent to an L, if it is one:
-    ``knee_bent`` refusals, one per run of the geodesic centre line
-    (:func:`app.geometry.placement.knee_bend.geodesic_shank_runs`) cut free of a limb
-    bent HIDDEN_KNEE_FLEXION_DEG or more whose shank shows its ankle and calf (placed, or
-    refused for its knee waist only); none for a straight leg (its geodesic line bends
-    12 degrees at most on benchmarks/robustness.py 220 17: an ankle_to_thigh crop) or a
-    shank that shows less.
-
-    Diagnosis only: a calf is never measured on a geodesic run.  It is the last resort
-    after readings that measure straight and bent legs right, and cut there a crop of a
-    straight leg was read as a shank in its thigh and fitted 110-183 mm off (seed 17
-    ankle_to_thigh-04; an earlier session's geodesic readings fitted two seated legs with
-    cD 14 and 24 mm off); a knee bent so far is measured straight, as RAL-GZ 387 measures."""
-    out = []
-    for run in geodesic_shank_runs(samples, weights):
-        if run.flexion_deg < HIDDEN_KNEE_FLEXION_DEG:
-            continue
-        run_basis = cf.perpendicular_basis(run.direction, basis[1])
-        run_points, run_faces = clip_to_half_spaces(points, faces, run.half_spaces)
-        kept = keep_index(samples, run.half_spaces)
-        run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
-        try:
-            _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
-                    run_points, run_faces, run_samples, run_weights, run.half_spaces)
-        except FitFailure as failure:
-            if failure.reason is FailureReason.NO_KNEE:
-                out.append(_hidden_knee_refusal(failure, run))
-            continue
-        out.append(FitFailure(
-            FailureReason.KNEE_BENT,
-            f"the knee is bent by about {run.flexion_deg:.0f} degrees: along the leg's own axis no calf was found, "
-            "and the shank cut free of the thigh is not measured (a knee bent this far puts the thigh in the planes "
-            "across the calf and the knee waist). Scan the leg standing, or lying with the knee straight, as a "
-            "compression stocking is measured."))
-    return out
+def _place_run(run, points, faces, samples, weights, basis) -> tuple[AxisProfile, np.ndarray, np.ndarray | None]:
+    """One run of a bent leg's centre line placed as :func:`place_candidate` places a
+    straight leg (raises FitFailure): the profile and the run's points and faces."""
+    run_basis = cf.perpendicular_basis(run.direction, basis[1])
+    run_points, run_faces = clip_to_half_spaces(points, faces, run.half_spaces)
+    kept = keep_index(samples, run.half_spaces)
+    run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
+    placed = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
+                     run_points, run_faces, run_samples, run_weights, run.half_spaces)
+    return placed, run_points, run_faces
 
 
 def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None) -> CalfAxis:
@@ -361,15 +312,10 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
     except FitFailure as straight_failure:
         run_failures = [straight_failure]
         for run in shank_runs(samples, weights, axis):
-            run_basis = cf.perpendicular_basis(run.direction, basis[1])
-            run_points, run_faces = clip_to_half_spaces(points, faces, run.half_spaces)
-            kept = keep_index(samples, run.half_spaces)
-            run_samples, run_weights = samples[kept], None if weights is None else weights[kept]
             try:
-                placed = _refine(_orient(run_points, run_faces, run.direction, run_basis, None, run.half_spaces),
-                                 run_points, run_faces, run_samples, run_weights, run.half_spaces)
+                placed, run_points, run_faces = _place_run(run, points, faces, samples, weights, basis)
             except FitFailure as failure:
-                run_failures.append(_hidden_knee_refusal(failure, run))
+                run_failures.append(hidden_knee_refusal(failure, run))
                 continue
             if isinstance(straight_failure, CalfWithoutBulge) and not placed.feats.on_foot:
                 # the straight leg stood on its foot without a calf bulge: a run with no
@@ -387,7 +333,9 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             # a bent knee's runs miss, cut off its foot, tells less
             if isinstance(straight_failure, CalfWithoutBulge):
                 raise straight_failure
-            run_failures += _seated_knee_refusals(points, faces, samples, weights, basis)
+            run_failures += seated_knee_refusals(
+                samples, weights, partial(_place_run, points=points, faces=faces, samples=samples, weights=weights,
+                                          basis=basis))
             raise max(run_failures, key=failure_stage)
 
     centre, local, heights, sections = placed.centre, placed.local, placed.heights, placed.sections
