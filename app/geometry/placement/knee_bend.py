@@ -75,14 +75,18 @@ class ShankRun:
     flexion_deg: float = 0.0
 
 
+def _binned_centroids(samples: np.ndarray, weights: np.ndarray, position: np.ndarray) -> np.ndarray:
+    """(b, 3) weighted centroids of the samples (s, 3) in bins CENTRE_LINE_BIN_MM wide of
+    ``position`` (s,) mm, in its order, the bins that hold a fair share of the surface."""
+    bins = np.floor((position - position.min()) / CENTRE_LINE_BIN_MM).astype(np.int64)
+    total = np.bincount(bins, weights=weights)
+    keep = total > 0.2 * np.median(total[total > 0])
+    return np.stack([np.bincount(bins, weights=weights * samples[:, i]) for i in range(3)], 1)[keep] / total[keep, None]
+
+
 def _centre_line(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> np.ndarray:
     """(b, 3) centroids of the bins along ``axis`` that hold a fair share of the surface."""
-    w = np.ones(len(samples)) if weights is None else weights
-    z = samples @ axis
-    slab = np.floor((z - z.min()) / CENTRE_LINE_BIN_MM).astype(np.int64)
-    total = np.bincount(slab, weights=w)
-    keep = total > 0.2 * np.median(total[total > 0])
-    return np.stack([np.bincount(slab, weights=w * samples[:, i]) for i in range(3)], 1)[keep] / total[keep, None]
+    return _binned_centroids(samples, np.ones(len(samples)) if weights is None else weights, samples @ axis)
 
 
 def _straight_runs(centres: np.ndarray) -> list[tuple[int, int]]:
@@ -155,11 +159,7 @@ def _geodesic_centre_line(samples: np.ndarray, weights: np.ndarray | None) -> np
     from_any = dijkstra(graph, directed=False, indices=int(largest[0]))
     end = int(largest[np.argmax(from_any[largest])])
     along = dijkstra(graph, directed=False, indices=end)[largest]
-    bins = np.floor(along / CENTRE_LINE_BIN_MM).astype(np.int64)
-    total = np.bincount(bins, weights=w[largest])
-    keep = total > 0.2 * np.median(total[total > 0])
-    sums = np.stack([np.bincount(bins, weights=w[largest] * points[largest, i]) for i in range(3)], 1)
-    return sums[keep] / total[keep, None]
+    return _binned_centroids(points[largest], w[largest], along)
 
 
 def shank_runs(samples: np.ndarray, weights: np.ndarray | None, axis: np.ndarray) -> list[ShankRun]:

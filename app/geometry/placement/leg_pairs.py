@@ -169,19 +169,22 @@ def split_two_legs(points_mm: np.ndarray, spacing_p95_mm: float | None = None) -
     pixel = max(10.0, 2.0 * spacing_p95_mm)
     band = max(3.0, spacing_p95_mm)
     fractions = np.linspace(0.10, 0.50, 9)
-    # per end (the low end first) and slab: two blobs of comparable size, and (only
-    # looked for where there are not) two touching lobes
+    # per end (the low end first) and slab: two blobs of comparable size; and, only when
+    # the blobs split neither end, two touching lobes where there are no two blobs
     blobs, lobes, sizes_near = np.zeros((2, 9), bool), np.zeros((2, 9), bool), np.zeros((2, 9))
+    slabs = {}
     for end, sign in enumerate((1.0, -1.0)):
         for k, f in enumerate(fractions):
             level = lo + f * length if sign > 0 else hi - f * length
-            slab = local[(h >= level - 10.0) & (h < level + 10.0), :2]
-            sizes = _slab_blob_sizes(slab, pixel)
+            slabs[end, k] = local[(h >= level - 10.0) & (h < level + 10.0), :2]
+            sizes = _slab_blob_sizes(slabs[end, k], pixel)
             blobs[end, k] = sizes.size >= 2 and sizes[1] >= 0.3 * sizes[0]
-            lobes[end, k] = not blobs[end, k] and sizes.size > 0 and _two_touching_lobes(slab, band)
             sizes_near[end, k] = sizes[:2].sum() if sizes.size else 0
     near = fractions <= 0.30
     blob_shares = blobs.mean(axis=1)
+    if blob_shares.max() < TWO_LEG_SLAB_SHARE:
+        for end, k in zip(*np.nonzero(~blobs & (sizes_near > 0))):
+            lobes[end, k] = _two_touching_lobes(slabs[end, k], band)
     if blob_shares.max() >= TWO_LEG_SLAB_SHARE:
         shares, paired, apart = blob_shares, blobs, True
     elif (blobs | lobes).mean(axis=1).min() >= TWO_LEG_SLAB_SHARE:
