@@ -63,6 +63,7 @@ from scipy.spatial import ConvexHull, cKDTree
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.anatomy.skin_points import Skin
 from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM
+from app.geometry.scan.mesh_parts import used_vertices
 from app.geometry.sections import (
     TAPE_BAND_OFFSETS_MM,
     edge_crossings,
@@ -156,10 +157,8 @@ def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float,
         index = np.cumsum(keep) - 1
         return points[keep], None, index[edges[keep[edges].all(axis=1)]]
     keep = (points[faces, 2] < z_max).all(axis=1)
-    used = np.unique(faces[keep])
-    index = np.full(len(points), -1)
-    index[used] = np.arange(len(used))
-    return points[used], index[faces[keep]], None
+    used, below = used_vertices(faces[keep], len(points))
+    return points[used], below, None
 
 
 def _cloud_graph(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray | None, cKDTree | None]:
