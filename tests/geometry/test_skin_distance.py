@@ -70,3 +70,15 @@ def test_the_closest_point_deep_inside_a_large_triangle_is_found():
     faces = np.vstack([[0, 1, 2], np.column_stack([cell, cell + n, cell + 1]), np.column_stack([cell + 1, cell + n, cell + n + 1])])
     offset = _offsets_to_mesh(np.array([[0.0, 0.0, 1.0]]), vertices, faces)
     assert np.linalg.norm(offset[0]) == pytest.approx(1.0) and offset[0][2] == pytest.approx(-1.0)
+
+
+def test_the_faces_round_each_vertex_are_listed_once_each_in_rising_order():
+    from app.geometry.spline.skin_distance import FACES_PER_VERTEX, _faces_of_vertices
+
+    # a fan of 10 faces round vertex 0 (more than a table row holds) and a face naming vertex 1 twice
+    fan = np.array([[0, i, i + 1] for i in range(1, 11)] + [[1, 1, 12]])
+    table = _faces_of_vertices(fan, 14)
+    assert table.shape == (14, FACES_PER_VERTEX)
+    np.testing.assert_array_equal(table[0], np.arange(FACES_PER_VERTEX))  # the first 8 of its 10
+    np.testing.assert_array_equal(table[1], [0, 10, -1, -1, -1, -1, -1, -1])  # face 10 once
+    np.testing.assert_array_equal(table[13], -np.ones(FACES_PER_VERTEX))  # a vertex no face uses
