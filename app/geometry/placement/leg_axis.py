@@ -260,7 +260,17 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
-        feats = find_feature_heights(heights, girth, hint, sections.elongations(), feats.on_foot)
+        try:
+            feats = find_feature_heights(heights, girth, hint, sections.elongations(), feats.on_foot)
+        except FitFailure as failure:
+            # as in _orient: a strip bridged at every height reads as another shape (and
+            # pulls the sections' centroids, so the calf's axis, off the limb's: the
+            # landmarks the first axis found may be lost along the new one -
+            # benchmarks/coverage.py 20 37, leg 17, a 53-degree strip refused no_knee)
+            strip = None if half_spaces else bridged_strip_refusal(failure, sections)
+            if strip is None:
+                raise
+            raise strip from failure
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 

@@ -13,7 +13,7 @@ from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
 from app.geometry.garment.design import DesignInputs, design_stocking
 from app.geometry.garment.fabric import Fabric
 from app.geometry.garment.measuring_points import chart_of_record
-from app.geometry.placement.coverage import arc_bridge_bound_mm, bridged_strip_refusal, partial_view
+from app.geometry.placement.coverage import arc_bridge_bound_mm, bridged_strip_refusal, chord_arcs_deg, partial_view
 from app.geometry.scan.reader import load_scan
 from app.geometry.sections.polar import PolarSections, largest_gap, ray_angles
 from app.records.codec import record_from_fit
@@ -88,6 +88,35 @@ def test_a_shape_refusal_read_through_a_strip_on_one_side_names_the_strip():
     assert bridged_strip_refusal(no_knee, _sections(np.full(100, 30.0), one_side)) is None
     sparse = FitFailure(FailureReason.TOO_SPARSE, "too sparse")
     assert bridged_strip_refusal(sparse, _sections(np.full(100, 90.0), one_side)) is None
+
+
+def _seen_from_the_skins_centroid(radius: float, missing_deg: float, n_rays: int = 360) -> PolarSections:
+    """One section as the slicer reads it: a circle (mm) missing an arc centred on angle 0,
+    its rays cast from the centroid of the skin that remains (shifted away from the arc),
+    each ray hitting the circle; the rays that land in the arc hit no skin."""
+    half = np.radians(missing_deg) / 2
+    skin = np.linspace(half, 2 * np.pi - half, 100_000)
+    origin = np.array([radius * np.cos(skin).mean(), radius * np.sin(skin).mean()])  # (-x, 0): away from the arc
+    angles = ray_angles(n_rays)
+    direction = np.stack([np.cos(angles), np.sin(angles)], axis=1)
+    along = direction @ origin
+    reach = -along + np.sqrt(along**2 - origin @ origin + radius**2)  # (a,) to the circle
+    landing = np.arctan2(*(origin + reach[:, None] * direction).T[::-1])
+    gap, middle = largest_gap((np.abs(landing) > half)[None, :])
+    return PolarSections(np.zeros(1), origin[None, :], reach[None, :], angles, np.array([1.0 - gap[0] / 360.0]), gap,
+                         middle)
+
+
+def test_a_missing_arc_is_read_from_its_chord_not_from_the_remaining_skins_centre():
+    """Seen from the centre of the skin that remains, a missing arc looks narrower than
+    it is (the centre shifts away from it); the chord across it cuts the true arc from a
+    circle of the section's radius."""
+    for missing in (30.0, 53.0, 80.0):
+        section = _seen_from_the_skins_centroid(60.0, missing)
+        assert section.largest_gap_deg[0] < missing - 2.0  # seen narrower
+        assert chord_arcs_deg(section)[0] == pytest.approx(missing, abs=2.0)
+    whole = _sections(np.zeros(3), np.full(3, np.nan))
+    assert chord_arcs_deg(whole).tolist() == [0.0, 0.0, 0.0]
 
 
 @pytest.fixture(scope="module")
