@@ -107,6 +107,20 @@ class CalfWithoutBulge(FitFailure):
         super().__init__(FailureReason.NO_CALF, detail)
 
 
+class BridgedStrip(FitFailure):
+    """A ``partial_view`` refusal inferred, not measured: no ankle, knee waist or calf was
+    found on a profile whose sections miss, on one side, arcs whose bridges may move their
+    girths past an order's tolerance (app.geometry.placement.coverage.
+    bridged_strip_refusal) - the strip is the likelier cause of the shape refusal.  It
+    yields to a knee found bent (``knee_bent``: a shank cut free at a measured bend that
+    showed its ankle and calf), whose diagonal sections read through the L look like a
+    strip's arcs, and outranks the refusals it re-reads.  Crosses a process boundary as a
+    plain :class:`FitFailure`."""
+
+    def __init__(self, detail: str):
+        super().__init__(FailureReason.PARTIAL_VIEW, detail)
+
+
 class RisesToEdge(FitFailure):
     """A ``no_knee`` (``no_ankle``) refusal of a profile that only rises to the scan's
     top (bottom) edge: no ankle and no calf maximum were found, only a girth growing

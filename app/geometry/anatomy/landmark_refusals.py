@@ -6,7 +6,7 @@ stage (:func:`failure_stage`) says which of several refusals tells the most.  Un
 
 from __future__ import annotations
 
-from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, FootFound, RisesToEdge
+from app.geometry.errors import BridgedStrip, CalfWithoutBulge, FailureReason, FitFailure, FootFound, RisesToEdge
 
 #: how far a candidate got before it failed (higher is more informative)
 #: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
@@ -23,7 +23,12 @@ def failure_stage(failure: FitFailure) -> float:
     bulge; a missing ankle only did not find one below it; a missing knee found both), a
     leg without a calf bulge above its foot (:class:`CalfWithoutBulge`) above a found foot
     (it measured the foot and the leg on it); a girth that only rises to an edge
-    (:class:`RisesToEdge`) below a missing ankle."""
+    (:class:`RisesToEdge`) below a missing ankle; a partial view inferred from a shape
+    refusal (:class:`BridgedStrip`) above a missing knee and below a knee found bent
+    (robustness 220 7, seated-04: a knee bent 90 degrees read along the L's diagonal has
+    sections whose arcs read like a strip's)."""
+    if isinstance(failure, BridgedStrip):
+        return 2.25
     if isinstance(failure, CalfWithoutBulge):
         return 1.75
     if isinstance(failure, FootFound):

@@ -30,7 +30,7 @@ import dataclasses
 import numpy as np
 
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
-from app.geometry.errors import FailureReason, FitFailure
+from app.geometry.errors import BridgedStrip, FailureReason, FitFailure
 from app.geometry.sections.polar import MAX_GAP_DEG, PolarSections
 
 #: a strip missing along a quarter of the leg's length: a hole spans a few cm of it (the
@@ -115,8 +115,7 @@ def bridged_strip_refusal(failure: FitFailure, sections: PolarSections) -> FitFa
     if share < ONE_SIDED_SHARE or not same_side:
         return None
     arcs = missed[bridged]
-    return FitFailure(
-        FailureReason.PARTIAL_VIEW,
+    return BridgedStrip(
         f"the leg's shape could not be read ({failure.reason.value}: {failure.detail.split('. ')[0]}), and at "
         f"{share:.0%} of its heights an arc of {np.median(arcs):.0f} degrees (up to {arcs.max():.0f}) on the same "
         "side of the leg holds no skin - a strip the scanner missed, or a view from one side. Bridged across such an "

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import trimesh
 
+from app.geometry.anatomy.landmark_refusals import failure_stage
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
 from app.geometry.garment.design import DesignInputs, design_stocking
@@ -81,6 +82,10 @@ def test_a_shape_refusal_read_through_a_strip_on_one_side_names_the_strip():
     assert partial_view(_sections(np.full(100, 90.0), one_side)) is None  # within the limit
     named = bridged_strip_refusal(no_knee, _sections(np.full(100, 90.0), one_side))
     assert named is not None and named.reason is FailureReason.PARTIAL_VIEW
+    # inferred, not measured: it outranks the refusal it re-reads and yields to a knee found bent
+    bent = FitFailure(FailureReason.KNEE_BENT, "the knee is bent by about 83 degrees")
+    assert failure_stage(no_knee) < failure_stage(named) < failure_stage(bent)
+    assert failure_stage(named) < failure_stage(FitFailure(FailureReason.PARTIAL_VIEW, "seen from one side"))
     assert "no_knee: the knee waist is not in the scan)" in named.detail and "100% of its heights" in named.detail
     assert f"off by {arc_bridge_bound_mm(50.0, 90.0):.0f} mm" in named.detail
     assert bridged_strip_refusal(no_knee, _sections(np.full(100, 90.0), rng.uniform(0, 2 * np.pi, 100))) is None
