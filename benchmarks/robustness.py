@@ -85,7 +85,8 @@ def right(r: dict) -> bool:
         # ankle_to_thigh-04, cropped 0.13 mm below B): nothing in the scan tells the
         # waist there from a leg still narrowing below it, so no_ankle ("re-scan from
         # below the ankle bones") is right as well as a fit
-        return r["outcome"] == "no_ankle" and -r["notes"].get("bottom_above_B_mm", -np.inf) < TAPE_HALF_WIDTH_MM
+        below_b_mm = -r["notes"].get("bottom_above_B_mm", np.nan)  # NaN: not a crop under B
+        return r["outcome"] == "no_ankle" and below_b_mm < TAPE_HALF_WIDTH_MM
     return _calf_right(r) and abs(r["girth_error_mm"]["D"]) <= 10
 
 

@@ -61,6 +61,8 @@ GEODESIC_NEIGHBOURS = 8
 #: a knee bent this far (degrees, the centre lines' angle at the knee cut) hides its
 #: knee waist under the thigh when none is found above the calf
 HIDDEN_KNEE_FLEXION_DEG = 45.0
+#: what a knee_bent refusal asks of the clinic
+SCAN_STRAIGHT = "Scan the leg standing, or lying with the knee straight, as a compression stocking is measured."
 
 
 @dataclass(frozen=True)
@@ -239,8 +241,7 @@ def hidden_knee_refusal(failure: FitFailure, run: ShankRun) -> FitFailure:
         FailureReason.KNEE_BENT,
         f"the knee is bent by about {run.flexion_deg:.0f} degrees: cut free of the thigh, the shank shows its ankle "
         "and calf but not the knee waist (D) above them, which the bent knee's thigh covers (read as "
-        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression stocking "
-        "is measured.")
+        f"{failure.reason.value}). {SCAN_STRAIGHT}")
 
 
 def seated_knee_refusals(samples: np.ndarray, weights: np.ndarray | None,
@@ -272,6 +273,5 @@ def seated_knee_refusals(samples: np.ndarray, weights: np.ndarray | None,
             FailureReason.KNEE_BENT,
             f"the knee is bent by about {run.flexion_deg:.0f} degrees: along the leg's own axis no calf was found, "
             "and the shank cut free of the thigh is not measured (a knee bent this far puts the thigh in the planes "
-            "across the calf and the knee waist). Scan the leg standing, or lying with the knee straight, as a "
-            "compression stocking is measured."))
+            f"across the calf and the knee waist). {SCAN_STRAIGHT}"))
     return out

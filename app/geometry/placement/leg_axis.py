@@ -19,6 +19,8 @@ scan by :mod:`app.geometry.placement.place` - and returns a :class:`CalfAxis`, i
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 
@@ -156,6 +158,21 @@ def _cut_end(half_spaces, centre: np.ndarray, axis: np.ndarray) -> int:
     return 1 if (half_spaces[0][0] - centre) @ axis > 0 else -1
 
 
+@contextmanager
+def _strip_named(sections: PolarSections, half_spaces: tuple) -> Iterator[None]:
+    """Re-raise a refusal about the leg's shape read on ``sections`` as the strip the
+    scanner missed when a strip bridged at every height is the likelier cause
+    (:func:`app.geometry.placement.coverage.bridged_strip_refusal`); not on a bent knee's
+    run (``half_spaces``), whose cut opens sections by design."""
+    try:
+        yield
+    except FitFailure as failure:
+        strip = None if half_spaces else bridged_strip_refusal(failure, sections)
+        if strip is None:
+            raise
+        raise strip from failure
+
+
 def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
     """B, C, D along ``axis`` (and the axis possibly reversed).  ``half_spaces``: a bent
     knee's cut."""
@@ -165,18 +182,11 @@ def _orient(points, faces, axis, basis, up, half_spaces=()) -> AxisProfile:
     one_sided = None if half_spaces else partial_view(sections)  # (a bent knee's cut opens sections by design)
     if one_sided is not None:  # before the landmarks: a missing arc reads as another shape
         raise one_sided
-    try:
+    with _strip_named(sections, half_spaces):
         if up is not None:
             feats, flipped = find_feature_heights(heights, girth, elongation=sections.elongations()), False
         else:
             feats, flipped = landmarks_either_way(heights, girth, sections.elongations())
-    except FitFailure as failure:
-        # a strip bridged at every height reads as another shape too (a cut knee's
-        # sections are open by design, as above)
-        strip = None if half_spaces else bridged_strip_refusal(failure, sections)
-        if strip is None:
-            raise
-        raise strip from failure
     if flipped:  # the scan's axis pointed towards the foot
         axis = -axis
         basis = cf.perpendicular_basis(axis, basis[1])
@@ -260,17 +270,11 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
         local = (points - centre) @ basis.T
         window = (feats.b_mm - PROFILE_MARGIN_MM, feats.d_mm + PROFILE_MARGIN_MM)
         heights, girth, sections = _profile(local, faces, window, _cut_end(half_spaces, centre, axis))
-        try:
+        # a bridged strip also pulls the sections' centroids, so the calf's axis, off the
+        # limb's: the landmarks the first axis found may be lost along the new one
+        # (benchmarks/coverage.py 20 37, leg 17, a 53-degree strip refused no_knee)
+        with _strip_named(sections, half_spaces):
             feats = find_feature_heights(heights, girth, hint, sections.elongations(), feats.on_foot)
-        except FitFailure as failure:
-            # as in _orient: a strip bridged at every height reads as another shape (and
-            # pulls the sections' centroids, so the calf's axis, off the limb's: the
-            # landmarks the first axis found may be lost along the new one -
-            # benchmarks/coverage.py 20 37, leg 17, a 53-degree strip refused no_knee)
-            strip = None if half_spaces else bridged_strip_refusal(failure, sections)
-            if strip is None:
-                raise
-            raise strip from failure
     return AxisProfile(centre, local, heights, girth, sections, feats, axis, basis)
 
 
