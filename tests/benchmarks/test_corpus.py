@@ -34,12 +34,11 @@ SPECS = {s.case_id: s for s in corpus_specs(60)}
 
 #: cases the service still gets wrong, each said in the README's "what still fails"; strict,
 #: so a case that starts passing fails here until it is moved back
-KNOWN_WRONG = {
-    # 5.5k vertices of a lower leg ending 28 mm above its knee waist D, since the sparse
-    # kinds' vertices lie on the reference skin (b466c1c): refused no_knee ("still
-    # narrowing") - the README's sparse lower leg refused at its knee waist
-    "sparse_leg_vertices-00": "a sparse knee-high ending at its knee waist is refused no_knee",
-}
+#: (sparse_leg_vertices-00, 5.5k vertices of a lower leg ending 28 mm above its knee waist
+#: D, was refused no_knee along a first axis its dense foot had pulled 20 degrees off the
+#: shank; read again along the consensus line of the compact slabs' centroids it fits:
+#: app.geometry.placement.leg_axis._consensus_reading)
+KNOWN_WRONG: dict[str, str] = {}
 
 
 @pytest.mark.parametrize("case_id", [pytest.param(c, marks=pytest.mark.xfail(reason=KNOWN_WRONG[c], strict=True))
