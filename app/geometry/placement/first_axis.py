@@ -90,8 +90,11 @@ def centroid_line_axis(local_samples: np.ndarray, weights: np.ndarray | None,
     if compact.sum() < 10:
         return None
     centres = np.column_stack([moments["x"], moments["y"], moments["z"]])[compact]
-    on_line = consensus_line(centres) if consensus else np.ones(len(centres), dtype=bool)
-    direction = cf.principal_axis(centres[on_line], total[keep][compact][on_line])
+    slab_weights = total[keep][compact]
+    if consensus:
+        on_line = consensus_line(centres)
+        centres, slab_weights = centres[on_line], slab_weights[on_line]
+    direction = cf.principal_axis(centres, slab_weights)
     return direction if direction[2] > 0 else -direction
 
 

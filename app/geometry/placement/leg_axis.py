@@ -304,15 +304,15 @@ def _consensus_reading(points, faces, samples, weights, shape_axes, up, axis, fa
     it the other segment's sections stand in the planes across the knee (robustness 220
     11 seated-00, a knee bent 97 degrees, read so put D in the thigh, 85 mm too high, where
     its runs say knee_bent)."""
-    if any(failure.reason is FailureReason.KNEE_BENT for failure in failures):
-        raise max(failures, key=failure_stage)
-    line_axis, line_basis = first_axis(samples, weights, shape_axes, up, consensus=True)
-    if np.degrees(np.arccos(np.clip(abs(line_axis @ axis), 0.0, 1.0))) < REDETECT_DEG:
-        raise max(failures, key=failure_stage)  # the same line: the same reading
-    try:
-        return _refine(_orient(points, faces, line_axis, line_basis, up), points, faces, samples, weights, ())
-    except FitFailure as failure:
-        raise max([*failures, failure], key=failure_stage) from None
+    if not any(failure.reason is FailureReason.KNEE_BENT for failure in failures):
+        line_axis, line_basis = first_axis(samples, weights, shape_axes, up, consensus=True)
+        # (within REDETECT_DEG of the first axis: the same line, the same reading)
+        if np.degrees(np.arccos(np.clip(abs(line_axis @ axis), 0.0, 1.0))) >= REDETECT_DEG:
+            try:
+                return _refine(_orient(points, faces, line_axis, line_basis, up), points, faces, samples, weights, ())
+            except FitFailure as failure:
+                failures = [*failures, failure]
+    raise max(failures, key=failure_stage)
 
 
 def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None) -> CalfAxis:
