@@ -69,6 +69,19 @@ def test_two_legs_in_a_coarse_mesh_are_cut_apart_on_its_triangles():
     assert result["side_found"] == case.true_side
 
 
+@pytest.mark.parametrize("seed,case_id", [(17, "sparse_leg_vertices-00"), (19, "sparse_leg_vertices-01")])
+def test_a_sparse_lower_leg_whose_slabs_leave_c_open_is_fitted_on_its_graph(seed, case_id):
+    """5.5k vertices of a lower leg, 2.5 points per mm of the calf: every 20 mm slab
+    within 12 mm of C missed a 120-degree arc of the back (the body mesh's long
+    triangles), and the cloud was refused too_sparse.  C's layer read where the
+    neighbour graph's edges cross its plane (app.geometry.fit.sparse_clouds.open_sections_on_graph),
+    the leg is measured within 2 mm at B and C and 4 mm at D."""
+    result = run_case(build_case({s.case_id: s for s in corpus_specs(220, seed)}[case_id]))
+    assert result["outcome"] == "fit", result.get("detail")
+    assert max(abs(result["girth_error_mm"][name]) for name in ("B", "C")) <= 2.0, result["girth_error_mm"]
+    assert abs(result["girth_error_mm"]["D"]) <= 4.0, result["girth_error_mm"]
+
+
 def test_several_legs_are_listed_in_the_failure():
     result = run_case(build_case(SPECS["two_legs_no_side-00"]))
     assert result["outcome"] == "several_legs"

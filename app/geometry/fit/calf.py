@@ -32,6 +32,7 @@ from app.geometry.fit.sparse_clouds import (
     SPARSE_CLOUD_POINTS_PER_MM,
     b1_on_graph,
     calf_density,
+    open_sections_on_graph,
     too_sparse,
 )
 from app.geometry.placement import calf_frame as cf
@@ -137,6 +138,8 @@ def fit_calf(
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
     if density is not None and valid.mean() < 0.9:  # a sparse cloud's open slabs, from their neighbours
         sections = bridge_sections(sections, sections)
+        if sparse and graph is not None and sections.valid.mean() < 0.9:  # and on its graph
+            sections = open_sections_on_graph(local, graph, sections)
         valid = sections.valid
     if valid.mean() < 0.9:
         if sparse and density is not None:
@@ -168,6 +171,8 @@ def fit_calf(
         layer_sections = without_open_arcs(layer_sections)
     if sparse and not layer_sections.valid.all():
         layer_sections = bridge_sections(layer_sections, sections)
+        if graph is not None and not layer_sections.valid.all():
+            layer_sections = open_sections_on_graph(local, graph, layer_sections)
     if not layer_sections.valid.all():
         if sparse and density is not None:
             raise too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())

@@ -12,7 +12,7 @@ from app.geometry.anatomy.feature_layers import b1_height
 from app.geometry.anatomy.landmarks import smooth_profile
 from app.geometry.anatomy.waists import TAPE_RESOLUTION_MM, WAIST_FIT_MM, WAIST_MIN_FLANK_MM, waist_vertex
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.sections import LimbGraph, limb_graph, neighbour_edges, tape_girths
+from app.geometry.sections import LimbGraph, PolarSections, graph_sections, limb_graph, neighbour_edges, tape_girths
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 
 #: a cloud whose sections cannot be closed (fewer than 90% of them, after bridging the
@@ -139,6 +139,28 @@ def b1_on_graph(local: np.ndarray, graph: LimbGraph, b_mm: float, c_mm: float) -
     if not (len(below) and len(above)):
         return None
     return b1_mm if max(b1_mm - below[-1], above[0] - b1_mm) <= B1_GRAPH_REACH_MM else None
+
+
+def open_sections_on_graph(local: np.ndarray, graph: LimbGraph, sections: PolarSections) -> PolarSections:
+    """A sparse cloud's ``sections`` (the calf's, or its feature layers: PolarSections at
+    ascending heights on a ray grid) with each one its slab left open read where the
+    neighbour ``graph``'s edges cross its plane (:func:`app.geometry.sections.graph_sections`),
+    the rest as they are.  The fit calls it only where the slabs and their bridging
+    (app.geometry.sections.polar.bridge_sections) leave the cloud too sparse to fit -
+    fewer than 90% of the calf's sections closed, or a feature layer open - so every
+    cloud fitted before is fitted as before, on its slabs.
+
+    A coarse body mesh's vertices leave a stretch of its skin without a point for 20 mm
+    and more along the leg where its triangles are long: on two knee-high sparse clouds
+    (5.5k vertices, 2.5 per mm of the calf) every 20 mm slab within 12 mm of C missed a
+    120-degree arc round the back of the calf, and the fit refused them as too sparse
+    (benchmarks/robustness.py 220 17 and 19, sparse_leg_vertices-00 and -01; a third,
+    chart_accuracy.py 8 17 leg 5, at its calf's sections, 82% closed).  The graph's
+    edges along the limb join the points above and below such a stretch and close the
+    planes across it.  local (n, 3) calf-frame mm."""
+    open_rows = np.flatnonzero(~sections.valid)
+    on_graph = graph_sections(local, graph, sections.heights_mm[open_rows], len(sections.angles_rad))
+    return sections.with_rows(open_rows, on_graph, np.ones(len(open_rows), dtype=bool))
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:

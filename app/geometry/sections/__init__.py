@@ -23,7 +23,7 @@ from app.geometry.sections.loop_smoothing import project_on_local_quadratics
 from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "edge_crossings", "group_median", "largest_gap",
+__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "edge_crossings", "graph_sections", "group_median", "largest_gap",
            "limb_crossings", "limb_graph", "mesh_section_segments", "neighbour_edges", "polygon_centroid",
            "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar", "slice_points_polar",
            "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
@@ -65,8 +65,7 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
     heights = np.asarray(heights, dtype=np.float64)
     if faces is not None and len(faces):
         plane, seg = mesh_section_segments(points, faces, heights)
-        ends = np.column_stack([seg.reshape(-1, 2), np.repeat(heights[plane], 2)])
-        sections = slice_points_polar(ends, heights, 360, half_thickness=1e-6, widen=False)
+        sections = _on_planes(seg.reshape(-1, 2), np.repeat(plane, 2), heights, 360)
         holed = holed_sections(plane, seg, len(heights))
         if not holed.any():
             return sections
@@ -80,12 +79,30 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
         if np.any(np.diff(heights) < 0):
             raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
         if isinstance(edges, LimbGraph):
-            plane, crossings = limb_crossings(points, edges, heights)
-        else:
-            plane, crossings = round_edge_crossings(points, edges, heights)
-        return slice_points_polar(np.column_stack([crossings, heights[plane]]), heights, 360,
-                                  half_thickness=1e-6, widen=False)
+            return graph_sections(points, edges, heights, 360)
+        plane, crossings = round_edge_crossings(points, edges, heights)
+        return _on_planes(crossings, plane, heights, 360)
     return slice_points_polar(points, heights, 360)
+
+
+def graph_sections(points: np.ndarray, graph: LimbGraph, heights: np.ndarray, n_angles: int = 72) -> PolarSections:
+    """A sparse cloud's sections at ``heights`` (k,), ascending, read where its neighbour
+    ``graph``'s edges cross each plane (:func:`app.geometry.sections.limb_graph.limb_crossings`),
+    as a mesh's triangles are cut, instead of on a slab of points: the robust polar fit
+    of the crossings on ``n_angles`` rays.  points (n, 3) mm in the frame whose z the
+    heights are; NaN rows where the crossings leave the section open."""
+    heights = np.asarray(heights, dtype=np.float64)
+    if np.any(np.diff(heights) < 0):
+        raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
+    plane, crossings = limb_crossings(points, graph, heights)
+    return _on_planes(crossings, plane, heights, n_angles)
+
+
+def _on_planes(xy: np.ndarray, plane: np.ndarray, heights: np.ndarray, n_angles: int) -> PolarSections:
+    """The robust polar fit of points ``xy`` (m, 2) mm lying on the planes ``heights``
+    (k,) (``plane`` (m,) each one's): no slab round them, none widened."""
+    return slice_points_polar(np.column_stack([xy, heights[plane]]), heights, n_angles, half_thickness=1e-6,
+                              widen=False)
 
 
 def tape_band_girths(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray,

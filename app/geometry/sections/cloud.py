@@ -33,8 +33,6 @@ heights (k,), radii (k, a).
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from app.geometry.sections.polar import MAX_GAP_DEG, PolarSections, largest_gap, polygon_centroid, ray_angles
@@ -203,21 +201,8 @@ def slice_points_polar(
         better = (wider.coverage > sections.coverage[thin]) & np.isfinite(wider.radii_mm).all(axis=1)
         if not better.any():
             continue
-        sections = _with_rows(sections, thin[better], wider, better)
+        sections = sections.with_rows(thin[better], wider, better)
     return sections
-
-
-def _with_rows(sections: PolarSections, rows: np.ndarray, wider: PolarSections, pick: np.ndarray) -> PolarSections:
-    """``sections`` with its ``rows`` (r,) read from ``wider``'s ``pick`` (bool, r true):
-    every per-section array (centre, radii, coverage, the largest gap and where it points)."""
-    taken = {}
-    for name in ("centroids_mm", "radii_mm", "coverage", "largest_gap_deg", "gap_middle_rad"):
-        mine, theirs = getattr(sections, name), getattr(wider, name)
-        if mine is not None and theirs is not None:
-            mine = mine.copy()
-            mine[rows] = theirs[pick]
-            taken[name] = mine
-    return dataclasses.replace(sections, **taken)
 
 
 def _slice_slabs(points: np.ndarray, ordered: tuple[np.ndarray, np.ndarray], heights: np.ndarray, n_angles: int,

@@ -62,6 +62,19 @@ class PolarSections:
             return np.zeros(len(self.heights_mm), dtype=bool)
         return (self.coverage > 0) & (self.largest_gap_deg > MAX_GAP_DEG)
 
+    def with_rows(self, rows: np.ndarray, other: PolarSections, pick: np.ndarray) -> PolarSections:
+        """These sections with their ``rows`` (r,) read from ``other``'s ``pick`` (bool,
+        r of them true; ``other`` on the same rays): every per-section array (centre,
+        radii, coverage, the largest gap and where it points)."""
+        taken = {}
+        for name in ("centroids_mm", "radii_mm", "coverage", "largest_gap_deg", "gap_middle_rad"):
+            mine, theirs = getattr(self, name), getattr(other, name)
+            if mine is not None and theirs is not None:
+                mine = mine.copy()
+                mine[rows] = theirs[pick]
+                taken[name] = mine
+        return dataclasses.replace(self, **taken)
+
     def circumferences(self) -> np.ndarray:
         """(k,) perimeter of each resampled contour (sum of chords, paper section 3.2), mm."""
         return polygon_perimeter(self.radii_mm, self.angles_rad)
