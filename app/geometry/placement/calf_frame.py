@@ -94,6 +94,13 @@ def principal_frame(points: np.ndarray, weights: np.ndarray | None = None) -> np
     return axes
 
 
+def angle_deg(a: np.ndarray, b: np.ndarray, undirected: bool = False) -> float:
+    """The angle between unit vectors ``a`` and ``b`` (3,), degrees; between the lines
+    they span (0-90) when ``undirected``."""
+    cosine = float(a @ b)
+    return float(np.degrees(np.arccos(np.clip(abs(cosine), 0.0, 1.0) if undirected else np.clip(cosine, -1.0, 1.0))))
+
+
 def perpendicular_basis(axis: np.ndarray, hint: np.ndarray | None = None) -> np.ndarray:
     """(3, 3) rotation whose rows x, y, z are right-handed with z = axis.
 

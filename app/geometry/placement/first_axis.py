@@ -145,7 +145,7 @@ def first_axis(samples: np.ndarray, weights: np.ndarray | None, shape_axes: np.n
         new_axis = basis.T @ line
         if new_axis @ axis < 0:
             new_axis = -new_axis
-        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        moved = cf.angle_deg(new_axis, axis)
         axis = new_axis
         basis = cf.perpendicular_basis(axis, basis[1])
         if moved < AXIS_TOLERANCE_DEG:

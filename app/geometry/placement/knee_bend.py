@@ -44,7 +44,7 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
 from app.geometry.errors import FailureReason, FitFailure
-from app.geometry.placement.calf_frame import principal_axis
+from app.geometry.placement.calf_frame import angle_deg, principal_axis
 
 #: centre-line bins along the leg, and the straightness tolerance of a run, mm
 CENTRE_LINE_BIN_MM = 15.0
@@ -137,7 +137,7 @@ def _knee_cut(samples: np.ndarray, run: np.ndarray, other: np.ndarray) -> tuple[
     start, beyond = run[0], other[-1]
     knee = _knee_point(run, other)
     u_run, u_next = _unit(knee - start), _unit(beyond - knee)
-    flexion = float(np.degrees(np.arccos(np.clip(u_run @ u_next, -1.0, 1.0))))
+    flexion = angle_deg(u_run, u_next)
     if flexion < MIN_FLEXION_DEG:
         return (), 0.0
     return ((knee, _unit(u_run + u_next)),), flexion

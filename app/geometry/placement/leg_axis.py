@@ -251,7 +251,7 @@ def _refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces)
             new_axis = basis.T @ line
         if new_axis @ axis < 0:
             new_axis = -new_axis
-        moved = np.degrees(np.arccos(np.clip(new_axis @ axis, -1.0, 1.0)))
+        moved = cf.angle_deg(new_axis, axis)
         if moved < AXIS_TOLERANCE_DEG:
             break
         if moved < REDETECT_DEG:
@@ -307,7 +307,7 @@ def _consensus_reading(points, faces, samples, weights, shape_axes, up, axis, fa
     if not any(failure.reason is FailureReason.KNEE_BENT for failure in failures):
         line_axis, line_basis = first_axis(samples, weights, shape_axes, up, consensus=True)
         # (within REDETECT_DEG of the first axis: the same line, the same reading)
-        if np.degrees(np.arccos(np.clip(abs(line_axis @ axis), 0.0, 1.0))) >= REDETECT_DEG:
+        if cf.angle_deg(line_axis, axis, undirected=True) >= REDETECT_DEG:
             try:
                 return _refine(_orient(points, faces, line_axis, line_basis, up), points, faces, samples, weights, ())
             except FitFailure as failure:
