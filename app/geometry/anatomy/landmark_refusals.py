@@ -38,6 +38,10 @@ def failure_stage(failure: FitFailure) -> float:
     return FAILURE_STAGE.get(failure.reason, 0)
 
 
+#: what a knee_bent refusal asks of the clinic
+SCAN_STRAIGHT = "Scan the leg standing, or lying with the knee straight, as a compression stocking is measured."
+
+
 def no_ankle(span_mm: float) -> FitFailure:
     return FitFailure(
         FailureReason.NO_ANKLE,

@@ -37,6 +37,7 @@ import numpy as np
 
 from app.geometry.anatomy.gluteal_fold import gluteal_fold, posterior_profile
 from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle_of_the_knee
+from app.geometry.anatomy.landmark_refusals import SCAN_STRAIGHT
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
 from app.geometry.errors import FailureReason, FitFailure
@@ -157,8 +158,7 @@ def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray
         f"the knee is bent: above the knee the leg leaves the shank's axis by {tilt:.0f} degrees (a standing leg's "
         f"by less than {MAX_THIGH_TILT_DEG:.0f}), and the planes a tape lies in across the calf and below the knee cut "
         "the thigh or the buttock too, so the calf's girths cannot be read from this scan (read as "
-        f"{failure.reason.value}). Scan the leg standing, or lying with the knee straight, as a compression "
-        "stocking is measured.")
+        f"{failure.reason.value}). {SCAN_STRAIGHT}")
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,

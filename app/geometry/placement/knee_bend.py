@@ -43,6 +43,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components, dijkstra
 from scipy.spatial import cKDTree
 
+from app.geometry.anatomy.landmark_refusals import SCAN_STRAIGHT
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement.calf_frame import angle_deg, principal_axis
 
@@ -61,8 +62,6 @@ GEODESIC_NEIGHBOURS = 8
 #: a knee bent this far (degrees, the centre lines' angle at the knee cut) hides its
 #: knee waist under the thigh when none is found above the calf
 HIDDEN_KNEE_FLEXION_DEG = 45.0
-#: what a knee_bent refusal asks of the clinic
-SCAN_STRAIGHT = "Scan the leg standing, or lying with the knee straight, as a compression stocking is measured."
 
 
 @dataclass(frozen=True)
