@@ -28,10 +28,11 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start(args: list[str], env: dict) -> subprocess.Popen:
-    """``calf-nurbs ARGS`` with ``env`` over this process's environment."""
+def start(args: list[str], env: dict, cwd: Path | None = None) -> subprocess.Popen:
+    """``calf-nurbs ARGS`` with ``env`` over this process's environment, in ``cwd`` (this
+    process's own when None)."""
     log = tempfile.TemporaryFile(mode="w+")
-    process = subprocess.Popen([str(BIN / "calf-nurbs"), *args], env={**os.environ, **env},
+    process = subprocess.Popen([str(BIN / "calf-nurbs"), *args], env={**os.environ, **env}, cwd=cwd,
                                stdout=log, stderr=subprocess.STDOUT, text=True)
     process.log = log  # type: ignore[attr-defined]
     return process
