@@ -1,19 +1,25 @@
 """Command line: calf-nurbs fit | export | serve | worker | design | keys.
 
 Exit codes: 0 success, 2 bad usage, 3 the scan, record or a file cannot be processed
-(the reason is printed to stderr as JSON {"error": reason, "detail": ...}).
+(the reason is printed to stderr as JSON {"error": reason, "detail": ...}); 141, quietly,
+when the reader of stdout stops reading (`| head`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from pathlib import Path
 
 from app.cad import CAD_FORMATS
 from app.geometry.errors import FitFailure
+
+#: the exit status of a command whose stdout's reader stopped reading (128 + SIGPIPE, as a
+#: shell reports a tool the signal ended)
+SIGPIPE_EXIT = 141
 
 
 def _fail(exc: FitFailure) -> int:
@@ -46,7 +52,8 @@ export formats: stl, glb, gltf (meshes); {cad} (exact B-spline)
 compression classes: {classes}
 
 exit codes: 0 done; 2 bad usage; 3 the scan, record or a file cannot be processed
-  (stderr: JSON {{"error": reason, "detail": sentence}})
+  (stderr: JSON {{"error": reason, "detail": sentence}}); 141 quietly when the reader
+  of stdout stops reading (| head)
 """
 
 
@@ -395,9 +402,18 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # a closed reader fails here, not in the interpreter's last flush
+        return status
     except FitFailure as exc:
         return _fail(exc)
+    except BrokenPipeError:
+        # the reader of stdout stopped reading (`| head`, a pager closed): not a file of
+        # the command's; end quietly as a Unix tool killed by SIGPIPE does, stdout sent
+        # to /dev/null so that the interpreter's last flush does not fail again
+        # (the Python documentation's note on SIGPIPE, signal module)
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return SIGPIPE_EXIT
     except OSError as exc:  # a file named on the command line: missing, a folder, not writable
         return _file_failure(exc)
 

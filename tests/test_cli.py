@@ -57,6 +57,20 @@ def test_fit_failure_exits_3_with_the_reason(tmp_path, capsys):
     assert error["error"] == "not_a_leg" and "wide" in error["detail"]
 
 
+def test_a_reader_that_stops_reading_ends_the_command_quietly(record_path):
+    """`calf-nurbs design ... | true`: the reader is gone before the design is printed.
+    Not a file error of the command's (it once said {"error": "file_error", "detail":
+    "Broken pipe"}): no word on stderr, and the status a tool SIGPIPE ends has."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    cli = Path(sys.executable).parent / "calf-nurbs"
+    run = subprocess.run(["bash", "-c", f"'{cli}' design '{record_path}' --class II --stiffness 10 --json | true; "
+                          "exit ${PIPESTATUS[0]}"], capture_output=True, text=True, timeout=120)
+    assert run.stderr == "" and run.returncode == 141, (run.returncode, run.stderr)
+
+
 def test_body_side_and_units_options(tmp_path, capsys):
     assert main(["fit", str(REAL / "vh_male_skin.glb"), "--side", "left", "--units", "m"]) == 0
     summary = json.loads(capsys.readouterr().out)
