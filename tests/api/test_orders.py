@@ -177,7 +177,7 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
     refused = client.post(f"/api/v1/records/{body['record_id']}/designs",
                           json={"stocking_type": "AG", "fabric": {"stiffness_n_per_cm": 10.0}})
     assert refused.status_code == 422 and refused.json()["code"] == "invalid_target"
-    assert "thigh-high (AG) design needs cE, cF and cG" in refused.json()["detail"]
+    assert "thigh-high (AG) design needs cE, cF and cG from the scan, and cF and cG are not there" in refused.json()["detail"]
     assert "gluteal fold" in refused.json()["detail"]
 
 
