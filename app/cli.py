@@ -291,7 +291,7 @@ def _cmd_size(args: argparse.Namespace) -> int:
     except json.JSONDecodeError as exc:
         from app.geometry.errors import FailureReason
 
-        return _fail(FitFailure(FailureReason.INVALID_TARGET, f"the chart is not JSON: {exc.msg} (line {exc.lineno})"))
+        return _fail(FitFailure(FailureReason.INVALID_SIZE_CHART, f"the chart is not JSON: {exc.msg} (line {exc.lineno})"))
     decision = size_decision(chart, record_chart_measures(record.landmarks, record.scan.get("sole_mm"), record.chart))
     if args.json:
         print(json.dumps({"chart": chart.product, **asdict(decision)}, indent=2))

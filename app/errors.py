@@ -109,6 +109,7 @@ FAILURE_TITLES = {
     FailureReason.INVALID_TARGET: "Invalid pressure target",
     FailureReason.INVALID_FABRIC: "Invalid fabric",
     FailureReason.UNREACHABLE_PRESSURE: "The fabric cannot reach the pressure without tearing",
+    FailureReason.INVALID_SIZE_CHART: "Invalid size chart",
 }
 
 

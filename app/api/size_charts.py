@@ -47,7 +47,7 @@ CHART_BODY = {"requestBody": {"required": True, "description": "the chart as JSO
              summary="Register a ready-to-wear size chart (JSON or CSV)",
              responses=problems(s400="bad_request: not UTF-8 JSON / CSV", s413="payload_too_large: over 64 kB",
                                 s415="unsupported_media_type",
-                                s422="invalid_target: the chart's fault, named"))
+                                s422="invalid_size_chart: the chart's fault, named"))
 async def register_chart(request: Request, response: Response, session: Session = Depends(get_session),
                          principal: Principal = Depends(authorize("design"))):
     media = (request.headers.get("content-type") or "").split(";")[0].strip().lower()

@@ -40,6 +40,8 @@ class FailureReason(str, enum.Enum):
     INVALID_TARGET = "invalid_target"
     INVALID_FABRIC = "invalid_fabric"
     UNREACHABLE_PRESSURE = "unreachable_pressure"
+    # size charts
+    INVALID_SIZE_CHART = "invalid_size_chart"
 
 
 class FitFailure(Exception):

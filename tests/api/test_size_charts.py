@@ -25,6 +25,7 @@ def test_the_example_chart_a_registered_chart_and_a_records_decision(shared_clie
     assert client.get(made.headers["location"]).json()["id"] == chart["id"]
     bad = client.post("/api/v1/size-charts", json={"product": "x", "type": "AG", "sizes": [{"name": "S", "ranges": {"cB": [3, 1]}}]})
     assert bad.status_code == 422 and "0 < min < max" in bad.json()["detail"]
+    assert bad.json()["code"] == "invalid_size_chart" and bad.json()["title"] == "Invalid size chart"
 
     record = fitted_record
     tape_b = record["landmarks"]["B"]["tape_girth_mm"]

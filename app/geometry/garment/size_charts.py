@@ -59,9 +59,9 @@ class SizeChart:
 def size_chart_from_dict(data: dict) -> SizeChart:
     """A validated chart from its JSON form: {"product", "type": "AD"|"AG", "source"?,
     "sizes": [{"name", "ranges": {"cB": [min, max], ...}}]}.  Raises FitFailure
-    (INVALID_TARGET) naming what is wrong."""
+    (INVALID_SIZE_CHART) naming what is wrong."""
     def bad(detail: str) -> FitFailure:
-        return FitFailure(FailureReason.INVALID_TARGET, f"size chart: {detail}")
+        return FitFailure(FailureReason.INVALID_SIZE_CHART, f"size chart: {detail}")
 
     if not isinstance(data, dict):
         raise bad("must be a JSON object")
@@ -114,7 +114,7 @@ def size_chart_dict_from_csv(text: str) -> dict:
             table.append(line)
     rows = list(csv.DictReader(io.StringIO("\n".join(table))))
     if not rows or not {"size", "point", "min_mm", "max_mm"} <= set(rows[0]):
-        raise FitFailure(FailureReason.INVALID_TARGET, "size chart CSV: the table needs the columns size, point, min_mm, max_mm")
+        raise FitFailure(FailureReason.INVALID_SIZE_CHART, "size chart CSV: the table needs the columns size, point, min_mm, max_mm")
     sizes: dict[str, dict] = {}
     for row in rows:
         sizes.setdefault(row["size"] or "", {})[row["point"] or ""] = [row["min_mm"], row["max_mm"]]
