@@ -79,6 +79,9 @@ def test_the_readmes_walkthrough_works_as_written(newcomer_folder):
     assert re.search(rf"^{re.escape(said_erased.group(1))}$", run.stdout, flags=re.M), run.stdout[-3000:]
     # designs: the knitting specification, the refusal of an unreachable fabric, the order
     assert "unreachable_pressure" in run.stdout
+    # size charts: the shipped examples listed, a CSV chart registered and decided on
+    assert "'example-ansur2-ad', 'example-ansur2-ag'" in run.stdout
+    assert re.search(r"^(ready_to_wear|made_to_measure|not_measured) ", run.stdout, flags=re.M), run.stdout[-3000:]
     for pdf in ("order.pdf",):
         assert (newcomer_folder / pdf).read_bytes()[:5] == b"%PDF-"
     for written in ("calf.stl", "calf.glb", "rec.json", "pressure.glb", "pressure.png", "leg.json", "fabric.csv"):
