@@ -15,6 +15,7 @@ from starlette.routing import Match
 from app.api.middleware import request_id_of
 from app.errors import PROBLEM_TYPE_PREFIX, ServiceError, from_fit_failure
 from app.geometry.errors import FitFailure
+from app.services.cases import CASE_REF_FORM, CASE_REF_TITLE
 
 PROBLEM_MEDIA_TYPE = "application/problem+json"
 #: routes whose body is a document with its own problem code (by route name)
@@ -25,6 +26,8 @@ RANGE_ERRORS = {"greater_than", "greater_than_equal", "less_than", "less_than_eq
 #: routes whose body fields have problem codes of their own (by route name, then field)
 FIELD_PROBLEMS = {"create_design": {"fabric": ("invalid_fabric", "Invalid fabric"),
                                     "targets_mmHg": ("invalid_target", "Invalid pressure target")}}
+#: path parameters no problem repeats in its ``instance`` (the route's template instead)
+SENSITIVE_PATH_PARAMETERS = {"case_ref"}
 log = logging.getLogger("calf_nurbs.api")
 
 
@@ -41,13 +44,23 @@ class Problem(BaseModel):
     request_id: str | None = Field(None, description="the request's X-Request-ID: quote it when asking about this error")
 
 
+def _instance(request: Request) -> str:
+    """The problem's ``instance``: the request's path, or its route's template where the
+    path carries a case reference (a clinic's pseudonymous id, or a name sent by mistake,
+    is repeated in no answer: app.services.cases)."""
+    route = request.scope.get("route")
+    if route is not None and SENSITIVE_PATH_PARAMETERS & set(request.scope.get("path_params") or {}):
+        return str(getattr(route, "path", request.url.path))
+    return str(request.url.path)
+
+
 def problem_response(request: Request, status: int, code: str, title: str, detail: str, extra: dict | None = None) -> JSONResponse:
     body = {
         "type": PROBLEM_TYPE_PREFIX + code,
         "title": title,
         "status": status,
         "detail": detail,
-        "instance": str(request.url.path),
+        "instance": _instance(request),
         "code": code,
         **(extra or {}),
     }
@@ -88,6 +101,9 @@ def install_problem_handlers(app: FastAPI) -> None:
         out_of_range = all(e["type"] in RANGE_ERRORS for e in errors)
         if document and out_of_range and len(named) == 1 and next(iter(named)) in fields:
             code, title = fields[next(iter(named))]
+        parameters = {str(e["loc"][-1]) for e in errors if e["loc"][:1] in (["query"], ["path"])}
+        if len(parameters) == 1 and len(errors) == 1 and next(iter(parameters)) in PARAMETER_PROBLEMS:
+            code, title = PARAMETER_PROBLEMS[next(iter(parameters))]
         return problem_response(request, 422, code, title, detail, {"errors": errors[:50]})
 
     @app.exception_handler(StarletteHTTPException)
@@ -120,7 +136,14 @@ PATTERN_HINTS = {
     "heights": "comma-separated numbers in mm, e.g. 50,120.5",
     "cursor": "the next_cursor of the previous page, as the service sent it",
     "Idempotency-Key": "1 to 255 printable ASCII characters without spaces, e.g. a UUID",
+    "case_ref": CASE_REF_FORM,
+    "since": "a day, YYYY-MM-DD",
+    "until": "a day, YYYY-MM-DD",
+    "grid": "ALONGxAROUND control points, e.g. 7x15 or 12x24",
 }
+#: parameters whose own problem code a value of the wrong form answers (by name): the
+#: README promises invalid_case_ref for a case reference that is a name or a date
+PARAMETER_PROBLEMS = {"case_ref": ("invalid_case_ref", CASE_REF_TITLE)}
 
 
 def _message(error: dict) -> str:

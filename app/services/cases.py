@@ -17,6 +17,10 @@ import re
 from app.errors import Unprocessable
 
 CASE_REF_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9._-]{0,63}$"
+#: the form CASE_REF_PATTERN asks, in words, and the problem's title
+CASE_REF_FORM = ("1-64 letters, digits, '.', '_' or '-' (starting with a letter or a digit): the clinic's own "
+                 "pseudonymous case id, never a name")
+CASE_REF_TITLE = "Invalid case reference"
 _CASE_REF = re.compile(CASE_REF_PATTERN)
 #: a date (1961-03-04, 04.03.1961)
 _IDENTIFYING = re.compile(r"^(\d{4}[-._]\d{2}[-._]\d{2}|\d{2}[-._]\d{2}[-._]\d{4})$")
@@ -28,9 +32,8 @@ def validate_case_ref(value: str | None) -> str | None:
     if value is None or value == "":
         return None
     if not isinstance(value, str) or not _CASE_REF.match(value):
-        raise Unprocessable("case_ref must be 1-64 letters, digits, '.', '_' or '-' (starting with a letter or a digit): "
-                            "the clinic's own pseudonymous case id, never a name", code="invalid_case_ref")
+        raise Unprocessable(f"case_ref must be {CASE_REF_FORM}", code="invalid_case_ref", title=CASE_REF_TITLE)
     if _IDENTIFYING.match(value):
         raise Unprocessable("case_ref looks like a date (a birth date?); send the clinic's pseudonymous case id "
-                            "instead (e.g. CASE-0042)", code="invalid_case_ref")
+                            "instead (e.g. CASE-0042)", code="invalid_case_ref", title=CASE_REF_TITLE)
     return value

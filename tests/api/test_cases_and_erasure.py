@@ -25,6 +25,24 @@ def test_names_dates_and_odd_characters_are_refused_without_repeating_them(value
     assert info.value.code == "invalid_case_ref" and value not in info.value.detail
 
 
+@pytest.mark.parametrize("method,path,params", [
+    ("post", "/api/v1/scans", {"case_ref": "Doe Jane"}),
+    ("get", "/api/v1/records", {"case_ref": "Doe Jane"}),
+    ("delete", "/api/v1/cases/Doe Jane", {}),
+    ("post", "/api/v1/scans", {"case_ref": "1961-03-04"}),
+])
+def test_a_name_or_a_date_in_any_case_ref_answers_invalid_case_ref_saying_the_form(service_client, method, path, params):
+    """Where the parameter's pattern refuses it (a space) as where the service does (a
+    date): the code and title of a case reference, the form it must have in words (it
+    said "expected another form", code invalid_request), and never the value."""
+    answer = getattr(service_client(), method)(path, params=params, **(
+        {"content": LEG.read_bytes(), "headers": {"Content-Type": "model/stl"}} if method == "post" else {}))
+    problem = answer.json()
+    assert answer.status_code == 422 and problem["code"] == "invalid_case_ref", problem
+    assert problem["title"] == "Invalid case reference"
+    assert "pseudonymous case id" in problem["detail"] and "Doe" not in answer.text and "1961" not in answer.text
+
+
 def _upload(client, case_ref: str | None, data: bytes, **params) -> dict:
     params = {"points": 8, **params, **({"case_ref": case_ref} if case_ref else {})}
     answer = client.post("/api/v1/scans", content=data, params=params, headers={"Content-Type": "model/stl"})
