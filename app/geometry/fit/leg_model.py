@@ -110,8 +110,9 @@ def leg_model_of(points: np.ndarray, faces: np.ndarray | None, landmarks: Landma
     measured (landmarks B, B1, C, D of the calf; E, F, G of the thigh), else why not."""
     if thigh is None or thigh.top_of_thigh.height_mm is None or thigh.knee.height_mm is None \
             or thigh.mid_thigh.height_mm is None:
-        reason = "the thigh is not measured" if thigh is None else (thigh.top_of_thigh.reason or thigh.mid_thigh.reason)
-        return LegModelOutcome(None, f"no leg model above the calf: {reason}")
+        reason = "the thigh is not measured" if thigh is None else (
+            thigh.top_of_thigh.reason or thigh.mid_thigh.reason or thigh.knee.reason or "E, F or G is not measured")
+        return LegModelOutcome(None, reason)
     heights = [landmarks.B.height_mm, landmarks.B1.height_mm, landmarks.C.height_mm, landmarks.D.height_mm,
                thigh.knee.height_mm, thigh.mid_thigh.height_mm, thigh.top_of_thigh.height_mm]
     return fit_leg_model(points, faces, np.array(heights, dtype=np.float64))
