@@ -64,6 +64,13 @@ class Unprocessable(ServiceError):
     status, code, title = 422, "unprocessable", "The input cannot be processed"
 
 
+class InvalidRequest(Unprocessable):
+    """A parameter the service checks beyond its schema (the code and title FastAPI's own
+    validation answers with: app.api.problems)."""
+
+    code, title = "invalid_request", "The request is not valid"
+
+
 class Conflict(ServiceError):
     status, code, title = 409, "conflict", "The request conflicts with an earlier one"
 

@@ -15,7 +15,7 @@ from app.api.negotiation import negotiate
 from app.api.problems import auth_problems, problems
 from app.api.schemas import CalfRecordBody, MeasurementsOut, RecordOut, RecordPage, ScanPointsOut
 from app.cad import CAD_EXTENSIONS, CAD_MEDIA_TYPES, TIMESTAMPED_FORMATS
-from app.errors import Unprocessable
+from app.errors import InvalidRequest, Unprocessable
 from app.services.cases import CASE_REF_PATTERN, validate_case_ref
 from app.services.deviations import MAX_POINTS as MAX_SCAN_POINTS
 from app.services.deviations import DeviationService
@@ -60,7 +60,7 @@ def _day(value: str, name: str) -> date:
     try:
         return date.fromisoformat(value)
     except ValueError as exc:
-        raise Unprocessable(f"{name} must be a calendar day YYYY-MM-DD, not {value!r}", code="invalid_request") from exc
+        raise InvalidRequest(f"{name} must be a calendar day YYYY-MM-DD, not {value!r}") from exc
 
 
 @router.get("/records", response_model=RecordPage, summary="Records, newest first (keyset pagination), by side, case and date",

@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 from app.cad import CAD_MEDIA_TYPES, export_surface
 from app.db.models import Record
 from app.db.repositories import RecordRepository
-from app.errors import BadRequest, NotFound, Unprocessable, from_fit_failure
+from app.errors import BadRequest, InvalidRequest, NotFound, Unprocessable, from_fit_failure
 from app.geometry.anatomy import LANDMARK_NAMES
 from app.geometry.errors import FitFailure
 from app.geometry.garment.measuring_points import chart_of_record
@@ -78,7 +78,7 @@ class RecordService:
              until: datetime | None = None, case_ref: str | None = None) -> tuple[list[Record], str | None]:
         after = decode_cursor(cursor) if cursor else None
         if since is not None and until is not None and until <= since:
-            raise Unprocessable("until must be after since", code="invalid_request")
+            raise InvalidRequest("until must be after since")
         rows = self.records.page(limit + 1, after, side, since, until, case_ref)
         more = len(rows) > limit
         rows = rows[:limit]
