@@ -114,12 +114,14 @@ def _cmd_fit(args: argparse.Namespace) -> int:
 def _load_record(path: str):
     from app.records.codec import CalfRecord
 
+    data = Path(path).read_bytes()  # a file that cannot be read: main's file_error
     try:
-        return CalfRecord.from_dict(json.loads(Path(path).read_text()))
-    except (OSError, json.JSONDecodeError) as exc:
+        return CalfRecord.from_dict(json.loads(data.decode("utf-8")))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         from app.geometry.errors import FailureReason
 
-        raise FitFailure(FailureReason.INVALID_RECORD, f"cannot read record {path}: {exc}") from exc
+        where = f" (line {exc.lineno})" if isinstance(exc, json.JSONDecodeError) else ""
+        raise FitFailure(FailureReason.INVALID_RECORD, f"{path} is not a record's JSON{where}") from exc
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -203,7 +205,10 @@ def _cmd_keys(args: argparse.Namespace) -> int:
                 key = service.revoke(args.prefix)
                 print(f"revoked {key.prefix}")
         except ServiceError as exc:
-            print(f"error: {exc.detail}", file=sys.stderr)
+            if exc.status == 404:  # a well-formed prefix of no key: not processed (3), as a missing file
+                print(json.dumps({"error": exc.code, "detail": exc.detail}), file=sys.stderr)
+                return 3
+            print(f"error: {exc.detail}", file=sys.stderr)  # a malformed argument (scopes): bad usage
             return 2
     return 0
 
@@ -416,6 +421,10 @@ def main(argv: list[str] | None = None) -> int:
         return SIGPIPE_EXIT
     except OSError as exc:  # a file named on the command line: missing, a folder, not writable
         return _file_failure(exc)
+    except UnicodeDecodeError:  # a record, chart or fabric table that is not text
+        print(json.dumps({"error": "file_error", "detail": "a file named on the command line is not UTF-8 text: records "
+                          "and charts are JSON or CSV, fabric tables CSV"}), file=sys.stderr)
+        return 3
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -114,14 +114,24 @@ def test_design_with_a_fabric_table_and_a_refusal(record_path, tmp_path, capsys)
     ["export", "{record}", "--format", "stl", "-o", "{tmp}"],
     ["fit", "{tmp}/missing.stl"],
     ["export", "{tmp}/missing.json", "-o", "{tmp}/x.stl"],
+    ["design", "{tmp}/missing.json"],
+    ["design", "{tmp}/binary"],
+    ["design", "{tmp}/not.json"],
+    ["design", "{record}", "--table", "{tmp}/binary"],
+    ["size", "{record}", "--chart", "{tmp}/binary"],
+    ["size", "{record}", "--chart", "{tmp}/not.json"],
 ])
 def test_every_failure_exits_3_with_json_and_no_traceback(command, record_path, tmp_path, capsys):
+    """A missing file, one that is not text (it once raised a traceback), one that is not
+    JSON: exit 3 and a sentence, without the exception's own words ([Errno 2] ...)."""
+    (tmp_path / "binary").write_bytes(b"\xff\xfe\x00binary")
+    (tmp_path / "not.json").write_text("{x")
     argv = [part.format(record=record_path, tmp=tmp_path) for part in command]
     assert main(argv) == 3
     captured = capsys.readouterr()
     error = json.loads(captured.err)
     assert set(error) == {"error", "detail"} and error["detail"]
-    assert "Traceback" not in captured.err
+    assert "Traceback" not in captured.err and "Errno" not in error["detail"]
 
 
 def test_help_lists_examples_formats_classes_and_exit_codes(capsys):

@@ -3,6 +3,7 @@ keys CLI.  The real app on a migrated temporary SQLite database, auth required."
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -215,6 +216,8 @@ def test_keys_cli_creates_lists_and_revokes(tmp_path):
     assert row.split("\t")[5] != "-"  # the revocation time
     bad = _cli(tmp_path, "create", "--tenant", "x", "--scopes", "upload,root")
     assert bad.returncode == 2 and "scopes must be some of" in bad.stderr
+    unknown = _cli(tmp_path, "revoke", "cnk_nothere")  # well formed, no such key: not processed, as a missing file
+    assert unknown.returncode == 3 and json.loads(unknown.stderr)["error"] == "key_not_found"
     settings = Settings(data_dir=tmp_path)
     with session_factory(settings.resolved_database_url)() as session:
         with pytest.raises(Exception, match="revoked"):
