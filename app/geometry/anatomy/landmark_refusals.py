@@ -60,6 +60,28 @@ def no_knee(span_mm: float) -> FitFailure:
     )
 
 
+def lost_inside_window(failure: FitFailure, window_mm: tuple[float, float], scan_mm: tuple[float, float],
+                       tilt_deg: float) -> FitFailure:
+    """``failure`` of the landmarks found again on a profile cut to ``window_mm`` (low,
+    high; the calf's own axis, ``tilt_deg`` from the axis they were first found along),
+    said as what it is when the scan (``scan_mm``: its extent along that axis) goes on
+    past the window's end the failure names: not "the scan reaches ... mm" (the window's
+    end, not the scan's) but a landmark lost along the new axis.  Same class and reason,
+    so the refusals rank as before (:func:`failure_stage`); other failures as they are."""
+    knee = failure.reason is FailureReason.NO_KNEE
+    if not (knee or failure.reason is FailureReason.NO_ANKLE):
+        return failure
+    if (scan_mm[1] <= window_mm[1]) if knee else (scan_mm[0] >= window_mm[0]):
+        return failure
+    what = ("the knee waist (D, the narrowest part of the leg below the knee)" if knee else
+            "the ankle (B, the narrowest part of the lower leg above the ankle bones)")
+    return type(failure)(
+        failure.reason,
+        f"{what} was not found again along the calf's own axis ({tilt_deg:.0f} degrees from the axis it was first "
+        f"found along), though the scan goes on past it: the leg may be bent or twisted there, or not scanned all "
+        f"round. Scan the leg standing straight and all round, from below the ankle bones to 3 cm above the knee.")
+
+
 def ends_inside_calf(rise_mm: float, low_mm: float, high_mm: float, at_top: bool) -> FitFailure:
     """The scan stops while the girth is still rising towards the calf: no calf maximum,
     and the waist beyond it, in the scan.  ``rise_mm``: from the narrowest section to

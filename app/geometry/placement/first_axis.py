@@ -35,7 +35,7 @@ PCA_SAMPLES = 30_000
 CENTROID_LINE_ITERATIONS = 4
 #: a compact centroid within this of a candidate line lies on it, mm: a shank's centroid
 #: line bows backwards by up to ~10 mm at the calf's bulge and below the knee (the
-#: hamstring tendons and condyles, leg_axis._section_centre_line), while a heel's or a
+#: hamstring tendons and condyles, straight_reading.section_centre_line), while a heel's or a
 #: bent knee's thigh slab lies tens of mm off it
 LINE_INLIER_MM = 12.0
 #: candidate lines join two centroids at least this far apart along the axis, mm: 1 mm of
@@ -45,7 +45,7 @@ LINE_BASE_MM = 60.0
 #: votes (48 give ~1,100 candidates, each scored over ~180 slabs of a whole leg)
 LINE_CANDIDATES = 48
 #: an axis is taken as found when an iteration moves it less than this, degrees (the
-#: calf axis's re-estimation, leg_axis._refine, stops by the same tolerance)
+#: calf axis's re-estimation, straight_reading.refine, stops by the same tolerance)
 AXIS_TOLERANCE_DEG = 0.5
 
 
