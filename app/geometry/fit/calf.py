@@ -28,6 +28,7 @@ from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.fit.options import FitOptions
 from app.geometry.fit.result import FitResult
 from app.geometry.fit.sparse_clouds import (
+    MIN_CLOUD_POINTS_PER_MM,
     MIN_SECTOR_COVERAGE,
     SPARSE_CLOUD_POINTS_PER_MM,
     b1_on_graph,
@@ -136,10 +137,13 @@ def fit_calf(
     density = None if faces is not None else calf_density(local, d_mm)  # a cloud's points per mm
     covered = float(np.median(sections.coverage))
     sparse = density is not None and covered < MIN_SECTOR_COVERAGE
+    # what a sparse cloud's slabs leave open read on its graph, if it is as dense as a
+    # cloud must be (open_sections_on_graph: a random sample sparser than that fitted so)
+    on_graph = graph if sparse and density is not None and density >= MIN_CLOUD_POINTS_PER_MM else None
     if density is not None and valid.mean() < 0.9:  # a sparse cloud's open slabs, from their neighbours
         sections = bridge_sections(sections, sections)
-        if sparse and graph is not None and sections.valid.mean() < 0.9:  # and on its graph
-            sections = open_sections_on_graph(local, graph, sections)
+        if on_graph is not None and sections.valid.mean() < 0.9:  # and on its graph
+            sections = open_sections_on_graph(local, on_graph, sections)
         valid = sections.valid
     if valid.mean() < 0.9:
         if sparse and density is not None:
@@ -171,8 +175,8 @@ def fit_calf(
         layer_sections = without_open_arcs(layer_sections)
     if sparse and not layer_sections.valid.all():
         layer_sections = bridge_sections(layer_sections, sections)
-        if graph is not None and not layer_sections.valid.all():
-            layer_sections = open_sections_on_graph(local, graph, layer_sections)
+        if on_graph is not None and not layer_sections.valid.all():
+            layer_sections = open_sections_on_graph(local, on_graph, layer_sections)
     if not layer_sections.valid.all():
         if sparse and density is not None:
             raise too_sparse("a feature layer of the calf", covered, density, layer_sections.valid.mean())
