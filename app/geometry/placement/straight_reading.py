@@ -202,6 +202,32 @@ def height_on(new_axis: np.ndarray, basis: np.ndarray, heights: np.ndarray, sect
     return float(point @ new_axis)
 
 
+def found_again(heights: np.ndarray, girth: np.ndarray, hint_mm: float, elongation: np.ndarray,
+                on_foot: bool) -> FeatureHeights:
+    """B, C, D found again on the profile along the calf's own axis (heights (k,), girth
+    (k,) mm; the sections' ``elongation`` (k,)), C kept within C_HINT_MM of ``hint_mm``
+    (where the previous axis put it: among a crown's similar peaks the choice does not
+    jump) - unless the profile read without the hint puts the knee waist D below that C:
+    then the hint has led C over the knee waist into the knee's bulge, and the reading
+    without it stands (C is the first calf bulge above the ankle,
+    :func:`app.geometry.anatomy.landmarks.find_feature_heights`).
+
+    How a hint goes wrong: a first axis far off the shank cuts the leg obliquely and
+    blurs the knee waist between the calf and the knee's bulge, which then read as one
+    plateau whose higher end, the knee, is taken for C.  A random 6,000 of BodyParts3D's
+    vertices put the first axis 15 degrees off the shank and C and D 145 and 110 mm high,
+    cD 28 mm long - warned only that D had no distinct minimum and that the surface
+    stood off the skin; along the shank's axis the profile shows the calf (377 mm), the
+    knee waist (356 mm) and the knee (387 mm) apart, and C and D are found within 3 mm of
+    the mesh's (tests/geometry/test_fit_real.py)."""
+    feats = find_feature_heights(heights, girth, hint_mm, elongation, on_foot)
+    try:
+        free = find_feature_heights(heights, girth, None, elongation, on_foot)
+    except FitFailure:
+        return feats
+    return free if free.d_mm < feats.c_mm else feats
+
+
 def refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces) -> AxisProfile:
     """The calf's long axis (:func:`section_centre_line`; the paper's section 2.1
     uses PCA of the calf between B and D), the landmarks found again along it, at most
@@ -243,7 +269,7 @@ def refine(oriented: AxisProfile, points, faces, samples, weights, half_spaces) 
         # (benchmarks/coverage.py 20 37, leg 17, a 53-degree strip refused no_knee)
         with strip_named(sections, half_spaces):
             try:
-                feats = find_feature_heights(heights, girth, hint, sections.elongations(), feats.on_foot)
+                feats = found_again(heights, girth, hint, sections.elongations(), feats.on_foot)
             except FitFailure as failure:  # the window's end is not the scan's (a bent knee's run: its cut)
                 scan = (float(local[:, 2].min()), float(local[:, 2].max()))
                 said = failure if half_spaces else lost_inside_window(failure, window, scan, moved)
