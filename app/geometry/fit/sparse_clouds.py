@@ -167,7 +167,7 @@ def open_sections_on_graph(local: np.ndarray, graph: LimbGraph, sections: PolarS
     slabs' refusal is the safeguard.  local (n, 3) calf-frame mm."""
     open_rows = np.flatnonzero(~sections.valid)
     on_graph = graph_sections(local, graph, sections.heights_mm[open_rows], len(sections.angles_rad))
-    return sections.with_rows(open_rows, on_graph, np.ones(len(open_rows), dtype=bool))
+    return sections.with_rows(open_rows, on_graph)
 
 
 def too_sparse(what: str, covered: float, density: float, closed: float) -> FitFailure:

@@ -378,11 +378,12 @@ def _thigh_chart(chart: dict | None) -> tuple[dict, dict[str, float]]:
     if missing or not chart.get("thigh_profile"):
         reasons = sorted({str(r) for name in missing if (r := (chart.get(name) or {}).get("reason"))})
         why = "; ".join(reasons) if reasons else "the record has no thigh measurements (fitted before 2026-12-02)"
-        lacking = (", ".join(missing[:-1]) + " and " + missing[-1] if len(missing) > 1 else missing[0]) if missing \
-            else "the thigh profile"
+        if len(missing) > 1:
+            lacking = f"{', '.join(missing[:-1])} and {missing[-1]} are"
+        else:
+            lacking = f"{missing[0] if missing else 'the thigh profile'} is"
         raise FitFailure(FailureReason.INVALID_TARGET,
-                         f"a thigh-high (AG) design needs cE, cF and cG from the scan, and {lacking} "
-                         f"{'are' if len(missing) > 1 else 'is'} not there: {why}")
+                         f"a thigh-high (AG) design needs cE, cF and cG from the scan, and {lacking} not there: {why}")
     return chart["thigh_profile"], {name[1]: float(chart[name]["height_mm"]) for name in ("cE", "cF", "cG")}
 
 

@@ -75,11 +75,10 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
         radii, centroids = sections.radii_mm.copy(), sections.centroids_mm.copy()
         centroids[holed], radii[holed] = sections_across_holes(points, faces, heights[holed], 360)
         return dataclasses.replace(sections, radii_mm=radii, centroids_mm=centroids)
+    if isinstance(edges, LimbGraph):
+        return graph_sections(points, edges, heights, 360)
     if edges is not None:
-        if np.any(np.diff(heights) < 0):
-            raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
-        if isinstance(edges, LimbGraph):
-            return graph_sections(points, edges, heights, 360)
+        _check_ascending(heights)
         plane, crossings = round_edge_crossings(points, edges, heights)
         return _on_planes(crossings, plane, heights, 360)
     return slice_points_polar(points, heights, 360)
@@ -92,10 +91,16 @@ def graph_sections(points: np.ndarray, graph: LimbGraph, heights: np.ndarray, n_
     of the crossings on ``n_angles`` rays.  points (n, 3) mm in the frame whose z the
     heights are; NaN rows where the crossings leave the section open."""
     heights = np.asarray(heights, dtype=np.float64)
-    if np.any(np.diff(heights) < 0):
-        raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
+    _check_ascending(heights)
     plane, crossings = limb_crossings(points, graph, heights)
     return _on_planes(crossings, plane, heights, n_angles)
+
+
+def _check_ascending(heights: np.ndarray) -> None:
+    """ValueError unless ``heights`` (k,) ascend: a cloud's crossings are matched to
+    their planes by a sorted search."""
+    if np.any(np.diff(heights) < 0):
+        raise ValueError("a cloud's sections on its neighbour graph are read at ascending heights")
 
 
 def _on_planes(xy: np.ndarray, plane: np.ndarray, heights: np.ndarray, n_angles: int) -> PolarSections:

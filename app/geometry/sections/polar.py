@@ -62,16 +62,18 @@ class PolarSections:
             return np.zeros(len(self.heights_mm), dtype=bool)
         return (self.coverage > 0) & (self.largest_gap_deg > MAX_GAP_DEG)
 
-    def with_rows(self, rows: np.ndarray, other: PolarSections, pick: np.ndarray) -> PolarSections:
+    def with_rows(self, rows: np.ndarray, other: PolarSections, pick: np.ndarray | None = None) -> PolarSections:
         """These sections with their ``rows`` (r,) read from ``other``'s ``pick`` (bool,
-        r of them true; ``other`` on the same rays): every per-section array (centre,
-        radii, coverage, the largest gap and where it points)."""
+        r of them true; all of ``other``'s, r rows, when None; ``other`` on the same
+        rays): every per-section array (centre, radii, coverage, the largest gap and where
+        it points)."""
+        taken_rows = slice(None) if pick is None else pick
         taken = {}
         for name in ("centroids_mm", "radii_mm", "coverage", "largest_gap_deg", "gap_middle_rad"):
             mine, theirs = getattr(self, name), getattr(other, name)
             if mine is not None and theirs is not None:
                 mine = mine.copy()
-                mine[rows] = theirs[pick]
+                mine[rows] = theirs[taken_rows]
                 taken[name] = mine
         return dataclasses.replace(self, **taken)
 
