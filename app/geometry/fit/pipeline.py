@@ -63,7 +63,7 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
     graph = sparse_cloud_graph(local, leg.faces, where.d_mm)
     slabs_where = where
     if graph is not None and not where.d_at_window_edge:  # a sparse cloud's D read again on its graph
-        d_mm, at_edge = knee_waist_on_graph(local, graph, where.d_mm, where.d_at_scan_edge)
+        d_mm, at_edge = knee_waist_on_graph(local, graph, where.d_mm, where.d_at_scan_edge, where.c_mm)
         where = dataclasses.replace(where, d_mm=d_mm, d_at_scan_edge=at_edge)
 
     def calf_at(at: LegPlacement) -> FitResult:

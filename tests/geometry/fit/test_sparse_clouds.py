@@ -41,6 +41,28 @@ def test_the_graph_puts_a_knee_waist_the_slabs_missed_where_it_is(slabs_d):
     assert d_mm == pytest.approx(WAIST, abs=2.0) and not at_edge
 
 
+@pytest.mark.parametrize("slabs_d", [WAIST + 44.0, WAIST + 60.0])
+def test_a_knee_waist_below_the_window_draws_d_down_to_it(slabs_d):
+    """The slabs took D on the knee's rise, more than WAIST_FIT_MM above the waist (the
+    Visible Human male's 5,000 vertices: 43 mm): read within its window alone, D stays
+    on the rise; with C's height given, the graph's thinner waist below the window is D."""
+    cloud = _vertices(420.0, np.random.default_rng(11))
+    graph = sparse_cloud_graph(cloud, None, slabs_d)
+    windowed, _ = knee_waist_on_graph(cloud, graph, slabs_d, at_scan_edge=False)
+    assert windowed > WAIST + 8.0
+    d_mm, at_edge = knee_waist_on_graph(cloud, graph, slabs_d, at_scan_edge=True, c_mm=150.0)
+    assert d_mm == pytest.approx(WAIST, abs=2.0) and not at_edge
+
+
+def test_a_calf_still_narrowing_below_the_window_keeps_d():
+    """Below a waist the slabs found, the calf narrows all the way up to it: nothing
+    below the window is thinner, so C's height changes nothing."""
+    cloud = _vertices(420.0, np.random.default_rng(13))
+    graph = sparse_cloud_graph(cloud, None, WAIST + 6.0)
+    assert (knee_waist_on_graph(cloud, graph, WAIST + 6.0, at_scan_edge=False, c_mm=150.0)
+            == knee_waist_on_graph(cloud, graph, WAIST + 6.0, at_scan_edge=False))
+
+
 def test_a_waist_taken_at_the_scans_edge_moves_only_inside_the_scan():
     """The scan ends 30 mm above the waist, the slabs took D at its edge: the graph reads
     the waist inside (its girth rises 9 mm to the edge) and D is no longer at the edge.
