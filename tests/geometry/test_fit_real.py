@@ -214,3 +214,19 @@ def test_a_sparse_sample_whose_first_axis_blurs_the_knee_waist_keeps_c_on_the_ca
     for name in ("C", "D"):
         assert abs(sparse[name]["height_mm"] - whole[name]["height_mm"]) < 10.0, (name, sparse[name], whole[name])
         assert abs(sparse[name]["tape_girth_mm"] - whole[name]["tape_girth_mm"]) < 3.0, (name, sparse[name], whole[name])
+
+
+def test_a_sparse_samples_knee_waist_below_the_slabs_window_is_found():
+    """5,000 of the Visible Human male's vertices (1 point per mm): the slabs put D 43 mm
+    above a flat knee waist, on the knee's rise, and the graph's reading within 20 mm of
+    it left D 22.5 mm high, cD 10 mm long.  The graph reads the thinner waist below that
+    window, and D is the knee waist's (app.geometry.fit.sparse_clouds._waist_below_window)."""
+    from app.geometry.fit.pipeline import FitOptions
+
+    scan = load_scan(REAL / "vh_male_skin.glb")
+    whole = fit_scan(scan, FitOptions(side="right")).landmarks.as_dict()
+    cloud = scan.points_mm[np.random.default_rng(1).choice(len(scan.points_mm), 5_000, replace=False)]
+    sparse = fit_scan(load_scan(trimesh.PointCloud(cloud).export(file_type="ply"), file_type="ply", units="mm"),
+                      FitOptions(side="right")).landmarks.as_dict()
+    assert abs(sparse["D"]["height_mm"] - whole["D"]["height_mm"]) < 8.0, (sparse["D"], whole["D"])
+    assert abs(sparse["D"]["tape_girth_mm"] - whole["D"]["tape_girth_mm"]) < 3.0, (sparse["D"], whole["D"])
