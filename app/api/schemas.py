@@ -84,6 +84,9 @@ class ChartPoint(BaseModel):
     uncertainty_mm: float | None = Field(
         None, ge=0, le=1000, description="how far the girth may be off where the scan leaves the point's place uncertain "
         "(a knee without a level crown, a smooth gluteal fold: the record's warnings say why); absent: within 3 mm")
+    height_uncertainty_mm: float | None = Field(
+        None, ge=0, le=1000, description="how far the point's height may be off (the thigh's points: E's level stretch, "
+        "G's smooth fold, F halfway), mm; its length from the floor says it beyond 10 mm")
 
 
 class ThighProfile(BaseModel):
@@ -221,8 +224,10 @@ class OrderMeasurement(BaseModel):
     height_mm: float | None = Field(description="the point's height in the calf frame (mm), where it is on the leg diagram")
     at_mm: list[float] | None = Field(None, description="where the tape lies (foot) or its section's centre (thigh), calf frame mm")
     reason: str | None = Field(description="why there is no value")
-    uncertainty_mm: float | None = Field(None, description="how far the girth may be off where the scan leaves the point's "
-                                         "place uncertain (the record's warnings say why); null: within 3 mm")
+    uncertainty_mm: float | None = Field(None, description="how far the value may be off: a girth where the scan leaves "
+                                         "the point's place uncertain (the record's warnings say why; null: within 3 mm), a "
+                                         "length where the point's height is (a flat calf crown, a long knee waist, a knee "
+                                         "without a level crown, a smooth gluteal fold; null: within 10 mm)")
 
 
 class MeasurementsOut(BaseModel):

@@ -222,7 +222,8 @@ def record_from_fit(result: FitResult, scan_format: str, scan_units: str, second
 def _parse_chart(chart) -> dict:
     """The version-3 ``chart``: each point {value_mm (0, MAX_CHART_MM] or null, at_mm [3]
     or null, height_mm or null, reason or null, uncertainty_mm [0, MAX_CHART_MM] when the
-    scan leaves a measured point's girth uncertain}; a point with no value needs its reason."""
+    scan leaves a measured point's girth uncertain, height_uncertainty_mm [0, MAX_CHART_MM]
+    how far a point's height may be off}; a point with no value needs its reason."""
     if chart is None:
         return {}
     if not isinstance(chart, dict) or not set(chart) <= set(CHART_POINTS) | {"thigh_profile"}:
@@ -251,6 +252,12 @@ def _parse_chart(chart) -> dict:
             raise _invalid(f"chart.{name}.reason must be a sentence (at most 500 characters)")
         if value is None and reason is None:
             raise _invalid(f"chart.{name} has no value: it needs its reason")
+        height_uncertainty = entry.get("height_uncertainty_mm")
+        if height_uncertainty is not None and (isinstance(height_uncertainty, bool)
+                                               or not isinstance(height_uncertainty, (int, float))
+                                               or not 0 <= height_uncertainty <= MAX_CHART_MM or height is None):
+            raise _invalid(f"chart.{name}.height_uncertainty_mm must be a length in [0, {MAX_CHART_MM:g}] mm of a point "
+                           "with a height, or absent")
         uncertainty = entry.get("uncertainty_mm")
         if uncertainty is not None and (isinstance(uncertainty, bool) or not isinstance(uncertainty, (int, float))
                                         or not 0 <= uncertainty <= MAX_CHART_MM or value is None):
@@ -259,7 +266,8 @@ def _parse_chart(chart) -> dict:
         clean[name] = {"value_mm": None if value is None else float(value), "reason": reason,
                        **({"at_mm": at} if "at_mm" in entry else {}),
                        **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {}),
-                       **({"uncertainty_mm": float(uncertainty)} if uncertainty is not None else {})}
+                       **({"uncertainty_mm": float(uncertainty)} if uncertainty is not None else {}),
+                       **({"height_uncertainty_mm": float(height_uncertainty)} if height_uncertainty is not None else {})}
     return clean
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.geometry.garment.measuring_points import MEASURING_POINTS, chart_of_record
+from app.geometry.garment.measuring_points import LENGTH_TOLERANCE_MM, MEASURING_POINTS, chart_of_record
 from app.records.codec import record_from_fit
 from tests.conftest import fitted
 
@@ -44,3 +44,26 @@ def test_without_the_floor_the_lengths_say_so_and_a_bad_type_is_refused(landmark
     assert "no landmark B1" in {m.point.name: m for m in chart_of_record(without_b1, None, "AD")}["cB1"].reason
     with pytest.raises(ValueError, match="AD, AG"):
         chart_of_record(landmarks, None, "AT")
+
+
+def test_a_length_whose_point_the_scan_places_loosely_says_how_loosely(landmarks):
+    """BodyParts3D's calf: C's crown is flat over about 24 mm (height tolerance 12 mm),
+    B1 on the calf's steep rise is placed within 1 mm.  lC carries C's tolerance as its
+    uncertainty, lB1 none (within the 10 mm a point placed by hand is reproducible to);
+    the thigh's lengths carry their points' height uncertainty past that, and a record
+    made before it was kept has none."""
+    sole = -120.0
+    chart = {m.point.name: m for m in chart_of_record(landmarks, sole, "AG")}
+    for name in ("B", "B1", "C", "D"):
+        tolerance = landmarks[name]["height_tolerance_mm"]
+        assert chart[f"l{name}"].uncertainty_mm == (tolerance if tolerance > LENGTH_TOLERANCE_MM else None)
+        assert chart[f"c{name}"].uncertainty_mm is None  # the girth is sure: a tape reads it alike along the crown
+    assert chart["lC"].uncertainty_mm is not None and chart["lB1"].uncertainty_mm is None
+    thigh = {"cE": {"value_mm": 390.0, "height_mm": 330.0, "reason": None, "height_uncertainty_mm": 3.0},
+             "cF": {"value_mm": 480.0, "height_mm": 470.0, "reason": None, "height_uncertainty_mm": 12.5},
+             "cG": {"value_mm": 560.0, "height_mm": 610.0, "reason": None}}
+    chart = {m.point.name: m for m in chart_of_record(landmarks, sole, "AG", thigh)}
+    assert (chart["lE"].uncertainty_mm, chart["lF"].uncertainty_mm, chart["lG"].uncertainty_mm) == (None, 12.5, None)
+    assert chart["lF"].value_mm == pytest.approx(590.0) and chart["cF"].uncertainty_mm is None
+    older = {name: {k: v for k, v in entry.items() if k != "height_tolerance_mm"} for name, entry in landmarks.items()}
+    assert all(m.uncertainty_mm is None for m in chart_of_record(older, sole, "AD") if m.point.kind == "length")

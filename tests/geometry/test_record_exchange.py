@@ -44,6 +44,7 @@ def test_record_round_trips_exactly(record_dict):
     # a point the scan leaves uncertain keeps its uncertainty
     unsure = copy.deepcopy(record_dict)
     unsure["chart"]["cE"]["uncertainty_mm"] = 4.5
+    unsure["chart"]["cE"]["height_uncertainty_mm"] = 21.0
     assert CalfRecord.from_dict(json.loads(json.dumps(unsure))).to_dict() == unsure
 
 
@@ -74,6 +75,8 @@ def _broken(record_dict, mutate):
         (lambda d: d.pop("surface"), "surface"),
         (lambda d: d["chart"]["cE"].__setitem__("uncertainty_mm", -2.0), "chart.cE.uncertainty_mm"),
         (lambda d: d["chart"]["cG"].__setitem__("uncertainty_mm", 5.0), "chart.cG.uncertainty_mm"),  # cG not measured
+        (lambda d: d["chart"]["cE"].__setitem__("height_uncertainty_mm", -1.0), "chart.cE.height_uncertainty_mm"),
+        (lambda d: d["chart"]["cG"].__setitem__("height_uncertainty_mm", 5.0), "chart.cG.height_uncertainty_mm"),  # no height
     ],
 )
 def test_malformed_records_are_refused_with_the_reason(record_dict, mutate, words):

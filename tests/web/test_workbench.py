@@ -435,7 +435,8 @@ def test_every_screen_fits_a_phone_without_sideways_scrolling(served, browser):
 def test_a_girth_the_scan_leaves_uncertain_is_shown_with_its_uncertainty(served, page):
     """A record whose chart says cG is uncertain by 6.6 mm (a smooth gluteal fold, as
     app.geometry.anatomy.thigh says it): the order-form table gives cG with "± 6.6" and
-    the advice to take it by tape; cE, which is sure, without."""
+    the advice to take it by tape; cE, which is sure, without; G's height uncertain by 14
+    mm, lG with "± 14" as a height (a tape has the same choice there)."""
     import httpx
 
     base, key = served
@@ -444,6 +445,7 @@ def test_a_girth_the_scan_leaves_uncertain_is_shown_with_its_uncertainty(served,
     for field in ("id", "source", "created_at", "scan_id"):
         record.pop(field, None)
     record["chart"]["cG"]["uncertainty_mm"] = 6.6
+    record["chart"]["cG"]["height_uncertainty_mm"] = 14.0  # G's height too: lG says it, as a height
     imported = httpx.post(f"{base}/api/v1/records", json=record, headers=headers, timeout=60)
     assert imported.status_code == 201, imported.text
     sign_in(page, base, key)
@@ -452,4 +454,6 @@ def test_a_girth_the_scan_leaves_uncertain_is_shown_with_its_uncertainty(served,
     expect(cell).to_contain_text("± 6.6", timeout=30_000)
     assert "take by tape" in cell.inner_text()
     assert "±" not in page.locator("#order-points tr[data-point=cE] td").last.inner_text()
+    length = page.locator("#order-points tr[data-point=lG] td").last.inner_text()
+    assert "± 14" in length and "height is uncertain" in length and "take by tape" not in length
     assert page.console_errors == []

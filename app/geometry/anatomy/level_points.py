@@ -37,6 +37,10 @@ class LevelPoint:
     #: by more than GIRTH_TOLERANCE_MM of girth (a knee without a level crown, a smooth
     #: gluteal fold); the record's warnings say why.  None: within the tolerance
     uncertainty_mm: float | None = None
+    #: how far the point's height may be off (mm): E's level stretch, G's smooth fold, F
+    #: halfway between (app.geometry.anatomy.thigh); the order's lengths (lE, lF, lG) say it
+    #: beyond app.geometry.garment.measuring_points.LENGTH_TOLERANCE_MM.  None: not read
+    height_uncertainty_mm: float | None = None
 
     def as_dict(self) -> dict:
         out: dict = {"value_mm": self.girth_mm, "height_mm": self.height_mm, "reason": self.reason}
@@ -44,6 +48,8 @@ class LevelPoint:
             out["at_mm"] = list(self.at_mm)
         if self.uncertainty_mm is not None:
             out["uncertainty_mm"] = self.uncertainty_mm
+        if self.height_uncertainty_mm is not None:
+            out["height_uncertainty_mm"] = self.height_uncertainty_mm
         return out
 
 

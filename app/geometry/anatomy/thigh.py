@@ -191,6 +191,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         return _none("the knee has no closed sections in the scan (a hole or a crop)")
     middle = middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window, edges)
     knee, e_mm, warnings = middle.point, middle.height_mm, middle.warnings
+    knee = dataclasses.replace(knee, height_uncertainty_mm=float(middle.height_uncertainty_mm))
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = posterior_profile(points, faces, heights, edges)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
@@ -239,5 +240,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
             f"the gluteal fold is smooth, not a crease: {extent}, over which the thigh's girth changes by up "
             f"to {g_girth:.0f} mm, so cG and lG (and F, halfway to it) are uncertain by about {g_girth:.0f} mm of "
             f"cG; a tape just below the fold decides",)
+    # where E, F and G may lie, for their lengths from the floor (F halfway: half of E's and G's)
+    mid_thigh = dataclasses.replace(mid_thigh, height_uncertainty_mm=float((middle.height_uncertainty_mm + g_height) / 2))
+    top_of_thigh = dataclasses.replace(top_of_thigh, height_uncertainty_mm=float(g_height))
     return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g),
                          warnings)

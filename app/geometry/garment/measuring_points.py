@@ -26,6 +26,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM
+
+#: a length whose point's height the scan places less sharply than this (mm: a landmark's
+#: ``height_tolerance_mm``, app.geometry.anatomy.feature_layers.height_tolerances - a flat
+#: calf crown, a long knee waist; the thigh's points' ``height_uncertainty_mm``) carries
+#: that as its uncertainty.  10 mm is the reproducibility of a measuring point placed by
+#: hand on the skin (HIGH_CONFIDENCE_MM, ~1 cm in anthropometric practice): within it a
+#: length is as sure as a tape's; beyond it a tape anywhere along the stretch reads the
+#: girth alike but the length differs by as much (the Visible Human female's calf read from
+#: 4,000-40,000 points of its skin: lC 5-11 mm off the mesh's reading, C's tolerance 15-31
+#: mm, unsaid before)
+LENGTH_TOLERANCE_MM = HIGH_CONFIDENCE_MM
+
 #: stocking types and the leg they cover
 STOCKING_TYPES = {"AD": "knee-high (AD): foot to below the knee", "AG": "thigh-high (AG): foot to the top of the thigh"}
 TOES = ("closed", "open")
@@ -80,7 +93,8 @@ class MeasuredPoint:
     at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's and thigh's points), calf frame
     #: how far a girth may be off where the scan leaves its place uncertain (the chart's
     #: uncertainty_mm: a knee without a level crown, a smooth gluteal fold) or misses an
-    #: arc of its skin (a calf landmark's girth_uncertainty_mm), mm
+    #: arc of its skin (a calf landmark's girth_uncertainty_mm), or a length where its
+    #: point's height is uncertain by more than LENGTH_TOLERANCE_MM, mm
     uncertainty_mm: float | None = None
 
 
@@ -127,7 +141,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
             elif sole_mm is None:
                 measured.append(MeasuredPoint(point, None, height, needed, no_floor))
             else:
-                measured.append(MeasuredPoint(point, float(height) - float(sole_mm), height, needed))
+                measured.append(MeasuredPoint(point, float(height) - float(sole_mm), height, needed,
+                                              uncertainty_mm=_length_uncertainty(level.get("height_uncertainty_mm"))))
         elif point.name in FOOT_POINTS:
             measured_foot = (foot or {}).get(point.name)
             if measured_foot is None:
@@ -143,7 +158,8 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
             measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed,
                                           uncertainty_mm=entry.get("girth_uncertainty_mm")))
         elif entry is not None and sole_mm is not None:
-            measured.append(MeasuredPoint(point, float(entry["height_mm"]) - float(sole_mm), float(entry["height_mm"]), needed))
+            measured.append(MeasuredPoint(point, float(entry["height_mm"]) - float(sole_mm), float(entry["height_mm"]), needed,
+                                          uncertainty_mm=_length_uncertainty(entry.get("height_tolerance_mm"))))
         elif entry is not None:
             measured.append(MeasuredPoint(point, None, float(entry["height_mm"]), needed, no_floor))
         elif letter in CALF_POINTS:
@@ -153,3 +169,12 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
                                           "the calf record models the leg from B to D (paper section 2); "
                                           "this point is not measured from the scan: take it by tape"))
     return tuple(measured)
+
+
+def _length_uncertainty(height_uncertainty_mm) -> float | None:
+    """A length's uncertainty (mm): its point's height uncertainty when more than
+    LENGTH_TOLERANCE_MM, else None (within what an order holds lengths to; a record made
+    before the uncertainty was kept has none)."""
+    if height_uncertainty_mm is None or not height_uncertainty_mm > LENGTH_TOLERANCE_MM:
+        return None
+    return float(height_uncertainty_mm)

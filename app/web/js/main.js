@@ -304,10 +304,14 @@ function orderPoints(chart) {
         h('td', { class: p.value_mm != null ? 'num' : 'muted', text: pointValue(p) })))))));
 }
 
-// a measured point's value, with how far it may be off where the scan leaves its place uncertain
+// a measured point's value, with how far it may be off where the scan leaves its place
+// uncertain: a girth a tape decides; a length whose point's height is uncertain (a flat
+// calf crown) reads the same girth anywhere along it, and a tape has the same choice
 function pointValue(p) {
   if (p.value_mm == null) return `not in the scan: ${p.reason}`;
-  return p.uncertainty_mm != null ? `${mm(p.value_mm)} mm ± ${mm(p.uncertainty_mm)} (uncertain: take by tape)` : `${mm(p.value_mm)} mm`;
+  if (p.uncertainty_mm == null) return `${mm(p.value_mm)} mm`;
+  const why = p.kind === 'length' ? 'the point\'s height is uncertain' : 'uncertain: take by tape';
+  return `${mm(p.value_mm)} mm ± ${mm(p.uncertainty_mm)} (${why})`;
 }
 
 async function draw3d(record, box, toggles, legend, chart) {

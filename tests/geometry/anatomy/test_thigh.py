@@ -284,6 +284,11 @@ def test_f_inherits_the_height_uncertainty_of_a_knee_whose_girth_stays_level():
     assert found.mid_thigh.girth_mm is not None and found.top_of_thigh.height_mm == pytest.approx(D + FOLD, abs=4.0)
     # E's reach is about half the 130 mm stretch; F's half that, on a 1.6 mm/mm thigh
     assert found.mid_thigh.uncertainty_mm is not None and found.mid_thigh.uncertainty_mm > 20.0
+    # the heights too, for the lengths lE, lF, lG: E anywhere along about half the stretch
+    # either way, F half of E's and G's, each kept in the record's chart
+    e, f, g = (p.height_uncertainty_mm for p in (found.knee, found.mid_thigh, found.top_of_thigh))
+    assert e > 40.0 and f == pytest.approx((e + g) / 2) and g < 10.0
+    assert found.mid_thigh.as_dict()["height_uncertainty_mm"] == f
 
 
 def _knee_rising_least_at_both_ends(peak_rise: float, top_slope: float = 0.66):
