@@ -73,7 +73,7 @@ def chart_points(scan, side: str | None) -> dict:
             # E's warning has two wordings (no level crown; a level stretch without sharp
             # ends): both state cE's uncertainty
             "e_uncertain": any(m.point.name == "cE" and m.uncertainty_mm is not None for m in measured),
-            "g_uncertain": any("gluteal fold is smooth" in w for w in record.warnings),
+            "g_uncertain": any(m.point.name == "cG" and m.uncertainty_mm is not None for m in measured),
             # B or D taken at the scan's edge (the record's landmark says so, and a warning
             # says how far off it may be)
             "at_scan_edge": [name for name, entry in record.landmarks.items() if entry.get("at_scan_edge")],

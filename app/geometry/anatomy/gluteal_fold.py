@@ -264,7 +264,10 @@ class GlutealFold:
     off: a noisy mesh narrows a smooth fold's peak by as much and more, and this floor is
     part of what its stated uncertainty covers, benchmarks/chart_accuracy.py 8 5);
     ``level_shift_mm`` how much G depends on where the fold is taken to begin (its bend
-    read beyond PEAK_LEVELS of its maximum instead of beyond THIGH_BACK_BEND)."""
+    read beyond PEAK_LEVELS of its maximum instead of beyond THIGH_BACK_BEND);
+    ``rival_mm`` how far from G the back bends as much as a fold does elsewhere (another
+    peak of FOLD_MIN_BEND or more below the buttock, apart from G's own at half its
+    maximum: G could as well lie there), signed (below G: negative), 0 where none."""
 
     height_mm: float | None
     reason: str | None
@@ -272,13 +275,14 @@ class GlutealFold:
     #: how far G moves when the bend is read beyond PEAK_LEVELS of its maximum instead of
     #: beyond THIGH_BACK_BEND (0 for a crease or a fold symmetric about its middle), mm
     level_shift_mm: float = 0.0
+    rival_mm: float = 0.0
 
     @property
     def height_uncertainty_mm(self) -> float:
         """How far G may lie from ``height_mm`` along the leg: the fold's own half extent
-        beyond a crease's, or how far it moves with where the fold is taken to begin,
-        whichever is more (mm)."""
-        return max(self.excess_half_width_mm, self.level_shift_mm)
+        beyond a crease's, how far it moves with where the fold is taken to begin, or how
+        far away the back bends as much as a fold elsewhere, whichever is more (mm)."""
+        return max(self.excess_half_width_mm, self.level_shift_mm, abs(self.rival_mm))
 
 
 def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
@@ -345,4 +349,25 @@ def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm:
     half_width = (half.top_mm - half.bottom_mm) / 2
     g_mm = centroid(THIGH_BACK_BEND)
     shift = max(abs(centroid(level * bend_here[peak]) - g_mm) for level in PEAK_LEVELS)
-    return GlutealFold(g_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift)
+    return GlutealFold(g_mm, None, max(half_width - SLOPE_HALF_MM, 0.0), shift,
+                       _farthest_rival(heights_here, bend_here, g_mm, half.bottom_mm, half.top_mm))
+
+
+def _farthest_rival(heights: np.ndarray, bend: np.ndarray, g_mm: float, bottom_mm: float, top_mm: float) -> float:
+    """How far from G (signed, mm; 0 where none) the farthest other peak of the back's
+    ``bend`` (k,) at ``heights`` (k,) lies that bends as much as a fold does
+    (FOLD_MIN_BEND: a thigh's back without a fold bends at most 0.06): a local maximum
+    outside G's own peak at half its maximum (``bottom_mm`` to ``top_mm``).  The largest
+    bend is G, but where two fold-sized bends stand on the back, which is the fold is a
+    matter of the scan's sampling: 6,000 of BodyParts3D's vertices drawn at random bent
+    0.74 at 596 mm, where its mesh does not bend at all, and 0.40 at its crease (624 mm),
+    and G was read 23 mm low, cG 8 mm short, said to be sure.  As E's rivals do
+    (app.geometry.anatomy.knee_middle), the farthest such peak bounds where G may lie."""
+    inner = np.isfinite(bend)
+    peak = np.zeros(len(bend), dtype=bool)
+    peak[1:-1] = inner[1:-1] & (bend[1:-1] >= bend[:-2]) & (bend[1:-1] >= bend[2:])
+    rivals = np.flatnonzero(peak & (bend >= FOLD_MIN_BEND) & ((heights < bottom_mm) | (heights > top_mm)))
+    if not rivals.size:
+        return 0.0
+    farthest = rivals[np.argmax(np.abs(heights[rivals] - g_mm))]
+    return float(heights[farthest] - g_mm)

@@ -236,8 +236,13 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
                   if fold.excess_half_width_mm >= fold.level_shift_mm else
                   f"its bend rises along about {fold.level_shift_mm:.0f} mm of height below or above G, so where G lies "
                   f"depends on where the fold is taken to begin")
+        fold_is = (f"the gluteal fold is smooth, not a crease: {extent}"
+                   if abs(fold.rival_mm) <= max(fold.excess_half_width_mm, fold.level_shift_mm) else
+                   f"the back of the thigh bends as much as a gluteal fold does {abs(fold.rival_mm):.0f} mm "
+                   f"{'below' if fold.rival_mm < 0 else 'above'} G too (the scan is too sparse or uneven there to "
+                   f"tell which is the fold), so G may lie at either or between")
         warnings = warnings + (
-            f"the gluteal fold is smooth, not a crease: {extent}, over which the thigh's girth changes by up "
+            f"{fold_is}, over which the thigh's girth changes by up "
             f"to {g_girth:.0f} mm, so cG and lG (and F, halfway to it) are uncertain by about {g_girth:.0f} mm of "
             f"cG; a tape just below the fold decides",)
     # where E, F and G may lie, for their lengths from the floor (F halfway: half of E's and G's)
