@@ -252,23 +252,27 @@ def _parse_chart(chart) -> dict:
             raise _invalid(f"chart.{name}.reason must be a sentence (at most 500 characters)")
         if value is None and reason is None:
             raise _invalid(f"chart.{name} has no value: it needs its reason")
-        height_uncertainty = entry.get("height_uncertainty_mm")
-        if height_uncertainty is not None and (isinstance(height_uncertainty, bool)
-                                               or not isinstance(height_uncertainty, (int, float))
-                                               or not 0 <= height_uncertainty <= MAX_CHART_MM or height is None):
-            raise _invalid(f"chart.{name}.height_uncertainty_mm must be a length in [0, {MAX_CHART_MM:g}] mm of a point "
-                           "with a height, or absent")
-        uncertainty = entry.get("uncertainty_mm")
-        if uncertainty is not None and (isinstance(uncertainty, bool) or not isinstance(uncertainty, (int, float))
-                                        or not 0 <= uncertainty <= MAX_CHART_MM or value is None):
-            raise _invalid(f"chart.{name}.uncertainty_mm must be a length in [0, {MAX_CHART_MM:g}] mm of a measured point, "
-                           "or absent")
+        uncertainty = _chart_uncertainty(entry, name, "uncertainty_mm", value is not None, "a measured point")
+        height_uncertainty = _chart_uncertainty(entry, name, "height_uncertainty_mm", height is not None,
+                                                "a point with a height")
         clean[name] = {"value_mm": None if value is None else float(value), "reason": reason,
                        **({"at_mm": at} if "at_mm" in entry else {}),
                        **({"height_mm": None if height is None else float(height)} if "height_mm" in entry else {}),
-                       **({"uncertainty_mm": float(uncertainty)} if uncertainty is not None else {}),
-                       **({"height_uncertainty_mm": float(height_uncertainty)} if height_uncertainty is not None else {})}
+                       **({"uncertainty_mm": uncertainty} if uncertainty is not None else {}),
+                       **({"height_uncertainty_mm": height_uncertainty} if height_uncertainty is not None else {})}
     return clean
+
+
+def _chart_uncertainty(entry: dict, name: str, key: str, of_what_exists: bool, of_what: str) -> float | None:
+    """A chart point's optional uncertainty ``entry[key]`` (mm, in [0, MAX_CHART_MM], only
+    on a point that has what it qualifies: ``of_what_exists``), or None when absent."""
+    uncertainty = entry.get(key)
+    if uncertainty is None:
+        return None
+    if (isinstance(uncertainty, bool) or not isinstance(uncertainty, (int, float))
+            or not 0 <= uncertainty <= MAX_CHART_MM or not of_what_exists):
+        raise _invalid(f"chart.{name}.{key} must be a length in [0, {MAX_CHART_MM:g}] mm of {of_what}, or absent")
+    return float(uncertainty)
 
 
 def _parse_thigh_profile(profile) -> dict:

@@ -284,6 +284,20 @@ class GlutealFold:
         far away the back bends as much as a fold elsewhere, whichever is more (mm)."""
         return max(self.excess_half_width_mm, self.level_shift_mm, abs(self.rival_mm))
 
+    @property
+    def uncertainty_text(self) -> str:
+        """Why G's height is uncertain, in words (the largest of the three causes of
+        :attr:`height_uncertainty_mm`); the thigh's warning goes on with what it does to cG."""
+        if abs(self.rival_mm) > max(self.excess_half_width_mm, self.level_shift_mm):
+            return (f"the back of the thigh bends as much as a gluteal fold does {abs(self.rival_mm):.0f} mm "
+                    f"{'below' if self.rival_mm < 0 else 'above'} G too (the scan is too sparse or uneven there to "
+                    "tell which is the fold), so G may lie at either or between")
+        if self.excess_half_width_mm >= self.level_shift_mm:
+            return (f"the gluteal fold is smooth, not a crease: it spans about {self.excess_half_width_mm:.0f} mm of "
+                    "height either side of G beyond a crease's width")
+        return (f"the gluteal fold is smooth, not a crease: its bend rises along about {self.level_shift_mm:.0f} mm of "
+                "height below or above G, so where G lies depends on where the fold is taken to begin")
+
 
 def gluteal_fold(heights: np.ndarray, rear: np.ndarray, above_mm: float, top_mm: float) -> GlutealFold:
     """The gluteal fold in ``heights`` (k,), evenly spaced by STEP_MM.  ``rear`` (k,) the

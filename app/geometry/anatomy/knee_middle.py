@@ -145,14 +145,18 @@ def _local_girth_slope(girth: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class KneeMiddle:
-    """E found: the point, its height (mm; read even where its section is not closed),
-    how uncertain that height is (mm, said in the warnings or not: F inherits half of it)
-    and the warning when cE is uncertain by more than GIRTH_TOLERANCE_MM."""
+    """E found: the point (with how uncertain its height is, mm, said in the warnings or
+    not: F inherits half of it), its height (mm; read even where its section is not
+    closed) and the warning when cE is uncertain by more than GIRTH_TOLERANCE_MM."""
 
     point: LevelPoint
     height_mm: float
-    height_uncertainty_mm: float
     warnings: tuple[str, ...]
+
+    @property
+    def height_uncertainty_mm(self) -> float:
+        """How far E may lie from ``height_mm`` along the leg (mm): the point's own."""
+        return float(self.point.height_uncertainty_mm or 0.0)
 
 
 def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np.ndarray, knee_sections: PolarSections,
@@ -217,4 +221,4 @@ def middle_of_the_knee(points: np.ndarray, faces: np.ndarray | None, heights: np
                "its middle, moves with where the stretch is taken to end")
         warnings = (f"{why}, uncertain by about {moved_mm:.0f} mm of height and {moved_girth:.0f} mm of cE; "
                     f"a tape at the middle of the patella decides",)
-    return KneeMiddle(knee, e_mm, moved_mm, warnings)
+    return KneeMiddle(dataclasses.replace(knee, height_uncertainty_mm=float(moved_mm)), e_mm, warnings)

@@ -191,7 +191,6 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         return _none("the knee has no closed sections in the scan (a hole or a crop)")
     middle = middle_of_the_knee(points, faces, heights, knee_sections, girth, slope, window, edges)
     knee, e_mm, warnings = middle.point, middle.height_mm, middle.warnings
-    knee = dataclasses.replace(knee, height_uncertainty_mm=float(middle.height_uncertainty_mm))
     # G: the gluteal fold, the corner of the posterior profile below the buttock
     rear = posterior_profile(points, faces, heights, edges)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
@@ -227,26 +226,18 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # the most it changes within that of F
     g_girth = girth_spread(planes, planes_girth, g_mm, g_height)
     g_uncertain = g_girth > GIRTH_TOLERANCE_MM
-    f_girth = girth_spread(planes, planes_girth, f_mm, (middle.height_uncertainty_mm + g_height) / 2)
+    f_height = (middle.height_uncertainty_mm + g_height) / 2
+    f_girth = girth_spread(planes, planes_girth, f_mm, f_height)
     if f_girth > GIRTH_TOLERANCE_MM:
         mid_thigh = dataclasses.replace(mid_thigh, uncertainty_mm=f_girth)
     if g_uncertain:
         top_of_thigh = dataclasses.replace(top_of_thigh, uncertainty_mm=g_girth)
-        extent = (f"it spans about {fold.excess_half_width_mm:.0f} mm of height either side of G beyond a crease's width"
-                  if fold.excess_half_width_mm >= fold.level_shift_mm else
-                  f"its bend rises along about {fold.level_shift_mm:.0f} mm of height below or above G, so where G lies "
-                  f"depends on where the fold is taken to begin")
-        fold_is = (f"the gluteal fold is smooth, not a crease: {extent}"
-                   if abs(fold.rival_mm) <= max(fold.excess_half_width_mm, fold.level_shift_mm) else
-                   f"the back of the thigh bends as much as a gluteal fold does {abs(fold.rival_mm):.0f} mm "
-                   f"{'below' if fold.rival_mm < 0 else 'above'} G too (the scan is too sparse or uneven there to "
-                   f"tell which is the fold), so G may lie at either or between")
         warnings = warnings + (
-            f"{fold_is}, over which the thigh's girth changes by up "
+            f"{fold.uncertainty_text}, over which the thigh's girth changes by up "
             f"to {g_girth:.0f} mm, so cG and lG (and F, halfway to it) are uncertain by about {g_girth:.0f} mm of "
             f"cG; a tape just below the fold decides",)
     # where E, F and G may lie, for their lengths from the floor (F halfway: half of E's and G's)
-    mid_thigh = dataclasses.replace(mid_thigh, height_uncertainty_mm=float((middle.height_uncertainty_mm + g_height) / 2))
+    mid_thigh = dataclasses.replace(mid_thigh, height_uncertainty_mm=float(f_height))
     top_of_thigh = dataclasses.replace(top_of_thigh, height_uncertainty_mm=float(g_height))
     return ThighMeasures(knee, mid_thigh, top_of_thigh, tuple(float(z) for z in profile_z), tuple(float(v) for v in profile_g),
                          warnings)
