@@ -60,12 +60,14 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
+from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.anatomy.skin_points import Skin
 from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM
 from app.geometry.scan.mesh_parts import used_vertices
 from app.geometry.sections import (
     TAPE_BAND_OFFSETS_MM,
+    crossing_ends,
     edge_crossings,
     largest_gap,
     mesh_section_segments,
@@ -121,9 +123,15 @@ class FootPoint:
     value_mm: float | None
     at_mm: tuple[float, float, float] | None = None
     reason: str | None = None
+    #: how much longer the skin's girth may be than the reading (mm), when a sparse loop's
+    #: gaps leave more than GIRTH_TOLERANCE_MM to it (module docstring, "A sparse loop")
+    uncertainty_mm: float | None = None
 
     def as_dict(self) -> dict:
-        return {"value_mm": self.value_mm, "at_mm": None if self.at_mm is None else list(self.at_mm), "reason": self.reason}
+        out = {"value_mm": self.value_mm, "at_mm": None if self.at_mm is None else list(self.at_mm), "reason": self.reason}
+        if self.uncertainty_mm is not None:
+            out["uncertainty_mm"] = self.uncertainty_mm
+        return out
 
 
 @dataclass(frozen=True)
@@ -134,6 +142,15 @@ class FootMeasures:
 
     def as_dict(self) -> dict:
         return {"foot_length": self.foot_length.as_dict(), "cA": self.ball_girth.as_dict(), "cY": self.heel_instep_girth.as_dict()}
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """A sentence for each girth a sparse loop leaves uncertain (module docstring)."""
+        return tuple(f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short: the scan's points are too "
+                     f"sparse round the {where} for its tape loop to follow the skin (the loop's chords bridge its "
+                     f"gaps); take {point.name} by tape (RAL-GZ 387)"
+                     for point, where in ((self.ball_girth, "forefoot"), (self.heel_instep_girth, "heel and instep"))
+                     if point.uncertainty_mm is not None)
 
 
 def _xyz(point: np.ndarray) -> tuple[float, float, float]:
@@ -189,6 +206,21 @@ def _sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | 
     return [crossings[plane == k] for k in range(len(offsets))]
 
 
+def _chord_sags(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
+                basis: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(k,) mm^2: per plane of :func:`_sections`, the mean over its crossings of
+    t (1 - t) e^2 / 2 (e the crossing's edge length, t where along it the plane lies):
+    times the skin's curvature, how far inside the skin a crossing on the edge's chord
+    lies (module docstring, "A sparse loop"); 0 for a mesh, whose sections are exact."""
+    if faces is not None and len(faces) or edges is None or not len(edges):
+        return np.zeros(len(offsets))
+    q = (points - origin) @ basis.T
+    plane, _, a, b, t = crossing_ends(q, edges, offsets)
+    sag = t * (1.0 - t) * np.sum((b - a) ** 2, axis=1) / 2.0
+    count = np.bincount(plane, minlength=len(offsets))
+    return np.bincount(plane, sag, minlength=len(offsets)) / np.maximum(count, 1)
+
+
 def _closed(section: np.ndarray) -> bool:
     """Whether a section's points (n, 2) close round a loop a tape can be read on: 30 or
     more points, and no run of empty bins of angle round their centroid (about 3 points
@@ -213,29 +245,82 @@ def _hull_girths(sections: list[np.ndarray]) -> np.ndarray:
     return np.array([ConvexHull(section).area if _closed(section) else np.nan for section in sections])
 
 
-def _loop_girth(section: np.ndarray) -> float:
+def chord_excess(loop: np.ndarray, floor_gradient: np.ndarray, floor_level: float) -> float:
+    """How much longer (mm) than its convex hull's perimeter a convex curve through the
+    hull's vertices can be: the bound of :func:`app.geometry.anatomy.foot` module
+    docstring's "A sparse loop", summed over the hull's edges; inf where an edge's
+    neighbouring edges, continued, do not meet beyond it (the loop turns half round over
+    it: no bound).  ``loop`` (n, 2) in-plane mm; the skin lies on the floor or above it:
+    in-plane points p with ``floor_gradient`` (2,) . p >= ``floor_level`` (mm)."""
+    vertices = loop[ConvexHull(loop).vertices]  # counter-clockwise
+    a, b = vertices, np.roll(vertices, -1, axis=0)
+    ahead = a - np.roll(vertices, 1, axis=0)  # the edge before a, continued past a
+    back = b - np.roll(vertices, -2, axis=0)  # the edge after b, continued back past b
+    chord = b - a
+    # a + s ahead = b + t back
+    det = back[:, 0] * ahead[:, 1] - ahead[:, 0] * back[:, 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (back[:, 0] * chord[:, 1] - chord[:, 0] * back[:, 1]) / det
+        t = (ahead[:, 0] * chord[:, 1] - chord[:, 0] * ahead[:, 1]) / det
+    meets = np.isfinite(s) & np.isfinite(t) & (s >= 0) & (t >= 0)
+    if not meets.all():
+        return float("inf")
+    apex = a + s[:, None] * ahead
+    over = np.linalg.norm(apex - a, axis=1) + np.linalg.norm(apex - b, axis=1)
+    # the corner below the floor is cut off along it
+    level_a = np.maximum(a @ floor_gradient, floor_level)
+    level_b = np.maximum(b @ floor_gradient, floor_level)
+    level_apex = apex @ floor_gradient
+    cut = level_apex < floor_level
+    if cut.any():
+        drop = np.where(cut, level_a - level_apex, 1.0)
+        enter = a + ((level_a - floor_level) / drop)[:, None] * (apex - a)
+        drop = np.where(cut, level_b - level_apex, 1.0)
+        leave = b + ((level_b - floor_level) / drop)[:, None] * (apex - b)
+        along_floor = (np.linalg.norm(enter - a, axis=1) + np.linalg.norm(leave - enter, axis=1)
+                       + np.linalg.norm(b - leave, axis=1))
+        over = np.where(cut, along_floor, over)
+    return float(np.maximum(over - np.linalg.norm(chord, axis=1), 0.0).sum())
+
+
+def _stated(shortfall_mm: float, girth_mm: float) -> float | None:
+    """A girth's uncertainty as the record states it (mm): what its loop may miss when
+    more than an order's GIRTH_TOLERANCE_MM, at most the girth itself (a loop whose gap
+    has no bound, :func:`chord_excess`'s inf); None within the tolerance."""
+    return float(min(shortfall_mm, girth_mm)) if shortfall_mm > GIRTH_TOLERANCE_MM else None
+
+
+def _loop_girth(section: np.ndarray, floor: tuple[np.ndarray, float], chord_sag: float) -> tuple[float, float]:
     """The tape girth (mm) of a closed section's points (n, 2): the convex hull of the
     points moved onto the smooth curve they sample
     (:func:`app.geometry.sections.project_on_local_quadratics`: a scanner's noise averaged
-    across the curve, a clean section's points left on it).  (The calf's polar fit,
+    across the curve, a clean section's points left on it), and how much longer the skin
+    may be than that hull (:func:`chord_excess`, mm).  (The calf's polar fit,
     :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
     harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
-    return float(ConvexHull(project_on_local_quadratics(section)).area)
+    loop = project_on_local_quadratics(section)
+    girth = float(ConvexHull(loop).area)
+    # crossings inside the skin by chord_sag times its curvature, on average 2 pi / girth
+    # round a closed convex loop: the tape shorter by 2 pi times their mean depth
+    return girth, chord_excess(loop, *floor) + 4.0 * np.pi**2 * chord_sag / girth
 
 
-def _extreme_tape(sections: list[np.ndarray], coarse: np.ndarray, planes: int, largest: bool) -> tuple[int, float]:
+def _extreme_tape(sections: list[np.ndarray], coarse: np.ndarray, planes: int, largest: bool,
+                  floors: list[tuple[np.ndarray, float]], chord_sags: np.ndarray) -> tuple[int, float, float]:
     """The tape band at the largest (or least) girth among the planes' ``sections`` (k
     lists of (n, 2) points, in order), some closed: the band of ``planes`` (odd) neighbours
     whose median ``coarse`` girth (k,) mm (:func:`_hull_girths`, NaN where not closed) is
     largest (least), then its tape (:func:`_loop_girth`, median over the band's closed
-    sections).  The moving least squares costs ~1 ms a section, the hull
+    sections) and how much longer the skin may be (the median of their chord excesses;
+    ``floors``, each plane's floor for :func:`chord_excess`).  The moving least squares costs ~1 ms a section, the hull
     ~0.05: read on the band alone, the foot's 40 sections cost the fit ~15 ms, not ~170; near
     the extreme the girth changes to second order, so the plane the raw hulls rank first
-    reads within a fraction of a millimetre of the one the tapes would.  (index, mm)."""
+    reads within a fraction of a millimetre of the one the tapes would.  (index, mm, mm)."""
     band = np.where(np.isfinite(coarse), running_median(coarse, planes), np.nan)
     best = int(np.nanargmax(band) if largest else np.nanargmin(band))
     near = range(max(best - planes // 2, 0), min(best + planes // 2 + 1, len(sections)))
-    return best, float(np.median([_loop_girth(sections[i]) for i in near if np.isfinite(coarse[i])]))
+    read = np.array([_loop_girth(sections[i], floors[i], chord_sags[i]) for i in near if np.isfinite(coarse[i])])
+    return best, float(np.median(read[:, 0])), float(np.median(read[:, 1]))
 
 
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None,
@@ -287,20 +372,26 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
-    best, ball = _extreme_tape(window, coarse, BALL_BAND_PLANES, largest=True)
+    lowest = skin.first(every, below_b[:, 2])
+    floor_level = min(sole_mm, float(below_b[lowest, 2])) - sole_mm if lowest is not None else 0.0
+    best, ball, ball_excess = _extreme_tape(window, coarse, BALL_BAND_PLANES, True,
+                                            [(np.array([0.0, 1.0]), floor_level)] * len(window),
+                                            _chord_sags(below_b, below_faces, edges, origin, basis, offsets))
     cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
     if cut:
         reason = f"the {' and '.join(cut)} end in a section {max(ends):.0f} mm round, not a taper: the foot is cut"
         return FootMeasures(FootPoint("foot_length", None, reason=reason), FootPoint("cA", None, reason=reason),
                             FootPoint("cY", None, reason=reason))
     ball_at = origin + offsets[best] * axis
-    ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]))
+    ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]),
+                           uncertainty_mm=_stated(ball_excess, ball))
     return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
-                                                                 instep_edges, instep_tree))
+                                                                 instep_edges, instep_tree, sole_mm + floor_level))
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,
-                 heel_t: float, length: float, edges: np.ndarray | None, tree: cKDTree | None) -> FootPoint:
+                 heel_t: float, length: float, edges: np.ndarray | None, tree: cKDTree | None,
+                 floor_z: float) -> FootPoint:
     """cY: the shortest loop round the heel's posterior-inferior point and over the front
     of the ankle, among the planes through that point containing the foot's transverse
     axis tilted INSTEP_TILT_DEG from the floor whose loop's far end lies over the ankle
@@ -314,6 +405,7 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
     loops: list[np.ndarray] = []  # each tilt's section, empty where it is no heel-instep loop
     centres = np.zeros((len(tilts), 3))
+    chord_sags = np.zeros(len(tilts))
     for k, tilt in enumerate(tilts):  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
@@ -327,14 +419,17 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
         # (a loop reaching the part's cut is not closed)
         if over_ankle and far[2] <= INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:
             loops[k], centres[k] = section, (heel + far) / 2
+            chord_sags[k] = _chord_sags(points, faces, edges, heel, basis, np.array([0.0]))[0]
     coarse = _hull_girths(loops)
     if not np.isfinite(coarse).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "
                                             "(a hole or a crop)")
     # the shortest of the loops, each read as the median of it and its neighbouring tilts:
     # the least of single loops is biased down by their noise, as the ball girth's largest up
-    best, girth = _extreme_tape(loops, coarse, INSTEP_BAND_PLANES, largest=False)
-    return FootPoint("cY", girth, _xyz(centres[best]))
+    best, girth, excess = _extreme_tape(loops, coarse, INSTEP_BAND_PLANES, False,
+                                        [(np.array([0.0, np.sin(tilt)]), floor_z - heel[2]) for tilt in tilts],
+                                        chord_sags)
+    return FootPoint("cY", girth, _xyz(centres[best]), uncertainty_mm=_stated(excess, girth))
 
 
 def _heel_corner(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray, heel_t: float,

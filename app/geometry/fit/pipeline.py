@@ -99,7 +99,7 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
     thigh = thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces), graph)
     foot = foot_measures(local, leg.faces, result.sole_mm, result.sole_reason)
     result = dataclasses.replace(result, foot=foot, thigh=thigh,
-                                 fit_warnings=result.fit_warnings + thigh.warnings)
+                                 fit_warnings=result.fit_warnings + foot.warnings + thigh.warnings)
     result.timings["chart_points"] = time.perf_counter() - measuring
     modelling = time.perf_counter()
     result = dataclasses.replace(result, leg_model=leg_model_of(local, leg.faces, result.landmarks, result.thigh))

@@ -304,7 +304,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         foot=foot_part(chart, targets["B"], inputs.toe, inputs.fabric, inputs.resolution_mm),
         top_band=top_band(spec, band_mm, inputs.fabric),
         uncertain_inputs=_uncertain_landmarks(landmarks)
-        + _uncertain_points(chart, THIGH_POINTS if thigh is not None else ()) + _off_skin(noticed.get("surface_to_scan"))
+        + _uncertain_points(chart, ("cA", "cY") + (THIGH_POINTS if thigh is not None else ())) + _off_skin(noticed.get("surface_to_scan"))
         + _doubled_skin(noticed.get("skin_layers"))
         + _sparse_thigh(noticed.get("sparse_points_per_mm"), thigh is not None),
     )
@@ -364,7 +364,8 @@ def _uncertain_landmarks(landmarks: dict) -> tuple[str, ...]:
 
 def _uncertain_points(chart: dict | None, names: tuple[str, ...]) -> tuple[str, ...]:
     """A sentence for each of ``names`` whose girth the record's chart says is uncertain
-    (its ``uncertainty_mm``, set by app.geometry.anatomy.thigh beyond an order's 3 mm)."""
+    (its ``uncertainty_mm``, set beyond an order's 3 mm by app.geometry.anatomy.thigh, and by
+    app.geometry.anatomy.foot where a sparse loop leaves cA or cY short)."""
     return tuple(_by_tape(name, f"is uncertain by about {uncertainty:.0f} mm (the record's warnings say why)")
                  for name in names
                  if (uncertainty := ((chart or {}).get(name) or {}).get("uncertainty_mm")) is not None)

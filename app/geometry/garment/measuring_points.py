@@ -93,7 +93,8 @@ class MeasuredPoint:
     at_mm: tuple[float, float, float] | None = None  # where the tape lies (the foot's and thigh's points), calf frame
     #: how far a girth may be off where the scan leaves its place uncertain (the chart's
     #: uncertainty_mm: a knee without a level crown, a smooth gluteal fold) or misses an
-    #: arc of its skin (a calf landmark's girth_uncertainty_mm), or a length where its
+    #: arc of its skin (a calf landmark's girth_uncertainty_mm) or leaves a foot's loop
+    #: too sparse to follow it (cA, cY: app.geometry.anatomy.foot), or a length where its
     #: point's height is uncertain by more than LENGTH_TOLERANCE_MM, mm
     uncertainty_mm: float | None = None
 
@@ -152,7 +153,7 @@ def chart_of_record(landmarks: dict, sole_mm: float | None, stocking_type: str,
                 at = measured_foot.get("at_mm")
                 where = None if at is None else (float(at[0]), float(at[1]), float(at[2]))
                 measured.append(MeasuredPoint(point, measured_foot.get("value_mm"), None if at is None else float(at[2]),
-                                              needed, measured_foot.get("reason"), where))
+                                              needed, measured_foot.get("reason"), where, measured_foot.get("uncertainty_mm")))
         elif entry is not None and point.kind == "circumference":
             girth = entry.get("tape_girth_mm", entry.get("circumference_mm"))
             measured.append(MeasuredPoint(point, float(girth), float(entry["height_mm"]), needed,

@@ -17,13 +17,13 @@ import dataclasses
 import numpy as np
 
 from app.geometry.sections.cloud import group_median, slice_points_polar
-from app.geometry.sections.cloud_edges import edge_crossings, neighbour_edges, round_edge_crossings
+from app.geometry.sections.cloud_edges import crossing_ends, edge_crossings, neighbour_edges, round_edge_crossings
 from app.geometry.sections.limb_graph import LimbGraph, limb_crossings, limb_graph
 from app.geometry.sections.loop_smoothing import project_on_local_quadratics
 from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "edge_crossings", "graph_sections", "group_median", "largest_gap",
+__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "crossing_ends", "edge_crossings", "graph_sections", "group_median", "largest_gap",
            "limb_crossings", "limb_graph", "mesh_section_segments", "neighbour_edges", "polygon_centroid",
            "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar", "slice_points_polar",
            "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
