@@ -46,6 +46,33 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   mm over (cY up to 2 mm short).  Judged on the spacing round each point instead, a
   scanner's streak off the heel passed as skin at its root (cY +1 mm), and judged on each
   point's reach against its neighbours' so did ghosts behind the heel (cY 6-8.5 mm short).
+- **A sparse loop** says what it may miss.  A tape's loop read from a cloud's crossings
+  is short where the cloud is sparse, two ways: its hull's chords bridge the gaps between
+  crossings (a body mesh's 700 vertices on a whole leg left the sole of the forefoot
+  without a crossing over 60 mm), and each crossing lies on its edge's chord, inside the
+  skin by t (1 - t) e^2 / 2 times the skin's curvature (e the edge, t where on it).  Real
+  legs read as 4,000-8,000 of their vertices read cA up to 34 mm and cY up to 15 mm short
+  of their meshes and said nothing (benchmarks/real_samples.py).  What the chords may
+  miss is bounded: a convex curve through the hull's vertices lies, over each edge, in
+  the triangle the edge makes with its neighbouring edges continued (the curve turns
+  the same way throughout), above the floor (the lower of the sole and the foot's lowest
+  skin: a standing forefoot lies within 12 mm of the heel's floor) - :func:`chord_excess`,
+  the triangles' two sides less the edge, summed.  The crossings' depth is estimated at
+  the loop's mean curvature, 2 pi / girth (exact on average round a closed convex curve),
+  and shortens the tape by 2 pi times it.  Their sum, over the tape's band (median), is
+  the girth's ``uncertainty_mm`` when more than GIRTH_TOLERANCE_MM (an order's 3 mm), with
+  a warning to take it by tape.  On a mesh it is 0.4-0.9 mm and on the generated scans'
+  dense clouds under the tolerance (benchmarks/chart_accuracy.py).  It is a bound, not
+  a correction, and a loose one: each edge's turn counts in full at both its ends, about
+  12 times what a smooth arc's chords miss (0.3 mm round a 36-gon), 5 times over a
+  90-degree gap - so a sparse cloud is warned about before it is wrong, never after.
+- **A sparse end** likewise: the foot's ends are the third skin point from either end,
+  so the foot may reach beyond each by the two skipped and, on a cloud, by the gap its
+  sampling leaves before the tip: with k points within r of the end (density k / pi r^2),
+  a tip of radius R (the heel's 25 mm, the big toe's 12) holds no point over a depth
+  r^2 / 2kR on average, three times that in 95 cases of 100 (the gap is exponential).
+  Their sum is the foot length's ``uncertainty_mm`` when more than a measuring point's
+  10 mm (HIGH_CONFIDENCE_MM).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -60,6 +87,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, cKDTree
 
+from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.anatomy.skin_points import Skin
@@ -112,6 +140,12 @@ INSTEP_TOP_MARGIN_MM = 10.0
 #: which the tape bridges; wider is no closed section).  Bins left empty one here and one
 #: there are the sampling's (about 3 points a bin: e^-3, 5%, of them empty), not a gap
 LOOP_MAX_GAP_DEG = 108.0
+#: a sparse end's sampling is read from this many nearest points round it, and the tip
+#: it may miss from the radius of the heel's back (app.geometry.anatomy.sole: a round heel
+#: of radius 25-30 mm, the lower taken) and of the big toe's tip (half its ~25 mm width), mm
+END_DENSITY_NEIGHBOURS = 6
+HEEL_RADIUS_MM = 25.0
+TOE_TIP_RADIUS_MM = 12.0
 
 
 @dataclass(frozen=True)
@@ -145,8 +179,11 @@ class FootMeasures:
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """A sentence for each girth a sparse loop leaves uncertain (module docstring)."""
-        return tuple(f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short: the scan's points are too "
+        """A sentence for each girth a sparse loop leaves uncertain and for a foot length
+        whose sparse ends do (module docstring)."""
+        length = self.foot_length.uncertainty_mm
+        return ((f"the foot length may read up to {length:.0f} mm short: the scan's points are too sparse at the "
+                 "heel or the toes to show where the foot ends; take the foot length by tape",) if length else ()) + tuple(f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short: the scan's points are too "
                      f"sparse round the {where} for its tape loop to follow the skin (the loop's chords bridge its "
                      f"gaps); take {point.name} by tape (RAL-GZ 387)"
                      for point, where in ((self.ball_girth, "forefoot"), (self.heel_instep_girth, "heel and instep"))
@@ -249,8 +286,8 @@ def chord_excess(loop: np.ndarray, floor_gradient: np.ndarray, floor_level: floa
     """How much longer (mm) than its convex hull's perimeter a convex curve through the
     hull's vertices can be: the bound of :func:`app.geometry.anatomy.foot` module
     docstring's "A sparse loop", summed over the hull's edges; inf where an edge's
-    neighbouring edges, continued, do not meet beyond it (the loop turns half round over
-    it: no bound).  ``loop`` (n, 2) in-plane mm; the skin lies on the floor or above it:
+    neighbouring edges, continued, meet neither beyond it nor the floor (the loop turns
+    half round over it: no bound).  ``loop`` (n, 2) in-plane mm; the skin lies on the floor or above it:
     in-plane points p with ``floor_gradient`` (2,) . p >= ``floor_level`` (mm)."""
     vertices = loop[ConvexHull(loop).vertices]  # counter-clockwise
     a, b = vertices, np.roll(vertices, -1, axis=0)
@@ -263,23 +300,23 @@ def chord_excess(loop: np.ndarray, floor_gradient: np.ndarray, floor_level: floa
         s = (back[:, 0] * chord[:, 1] - chord[:, 0] * back[:, 1]) / det
         t = (ahead[:, 0] * chord[:, 1] - chord[:, 0] * ahead[:, 1]) / det
     meets = np.isfinite(s) & np.isfinite(t) & (s >= 0) & (t >= 0)
-    if not meets.all():
-        return float("inf")
-    apex = a + s[:, None] * ahead
+    apex = a + np.where(meets, s, 0.0)[:, None] * ahead
     over = np.linalg.norm(apex - a, axis=1) + np.linalg.norm(apex - b, axis=1)
-    # the corner below the floor is cut off along it
+    # where the corner lies below the floor (or, the edges not meeting, both run down to
+    # it), the curve is bounded by the floor between where they reach it
     level_a = np.maximum(a @ floor_gradient, floor_level)
     level_b = np.maximum(b @ floor_gradient, floor_level)
-    level_apex = apex @ floor_gradient
-    cut = level_apex < floor_level
-    if cut.any():
-        drop = np.where(cut, level_a - level_apex, 1.0)
-        enter = a + ((level_a - floor_level) / drop)[:, None] * (apex - a)
-        drop = np.where(cut, level_b - level_apex, 1.0)
-        leave = b + ((level_b - floor_level) / drop)[:, None] * (apex - b)
+    descent_a, descent_b = -(ahead @ floor_gradient), -(back @ floor_gradient)
+    down = (descent_a > 0) & (descent_b > 0)
+    floored = down & (~meets | (apex @ floor_gradient < floor_level))
+    if not (meets | floored).all():
+        return float("inf")
+    if floored.any():
+        enter = a + ((level_a - floor_level) / np.where(down, descent_a, 1.0))[:, None] * ahead
+        leave = b + ((level_b - floor_level) / np.where(down, descent_b, 1.0))[:, None] * back
         along_floor = (np.linalg.norm(enter - a, axis=1) + np.linalg.norm(leave - enter, axis=1)
                        + np.linalg.norm(b - leave, axis=1))
-        over = np.where(cut, along_floor, over)
+        over = np.where(floored, along_floor, over)
     return float(np.maximum(over - np.linalg.norm(chord, axis=1), 0.0).sum())
 
 
@@ -354,6 +391,8 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
         return _not_measured("the scan has too few points near the sole to find the foot")
     heel_t, toe_t = float(along[heel_end]), float(along[toe_end])
     length = float(toe_t - heel_t)
+    length_short = (_end_shortfall(below_b, skin, along, heel_end, HEEL_RADIUS_MM)
+                    + _end_shortfall(below_b, skin, -along, toe_end, TOE_TIP_RADIUS_MM))
     if length < MIN_FOOT_MM:
         return _not_measured(f"the foot in the scan is {length:.0f} mm long, shorter than any foot "
                              f"({MIN_FOOT_MM:.0f} mm): it is cut")
@@ -367,7 +406,8 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     window = _sections(below_b, below_faces, edges, origin, basis, offsets)
     ends = _hull_girths(_sections(below_b, below_faces, edges, origin, basis,
                                   np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
-    foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis))
+    foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis),
+                            uncertainty_mm=length_short if length_short > HIGH_CONFIDENCE_MM else None)
     coarse = _hull_girths(window)
     if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
@@ -387,6 +427,20 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
                            uncertainty_mm=_stated(ball_excess, ball))
     return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
                                                                  instep_edges, instep_tree, sole_mm + floor_level))
+
+
+def _end_shortfall(points: np.ndarray, skin: Skin, along: np.ndarray, end: int, tip_radius_mm: float) -> float:
+    """How far (mm) the foot's end may lie beyond the point read as it, ``end`` (the
+    third skin point in the order of ``along`` (n,), mm): the two points skipped before
+    it, and on a cloud the gap its sampling may leave before the tip (module docstring,
+    "A sparse end"): 3 r^2 / (2 k ``tip_radius_mm``), r the distance to its k-th
+    nearest point (k = END_DENSITY_NEIGHBOURS).  ``points`` (n, 3) mm."""
+    first = skin.first(np.arange(len(points)), along)
+    skipped = float(along[end] - along[first]) if first is not None else 0.0
+    if skin.tree is None:  # a mesh's end is its extreme vertex
+        return skipped
+    reach = float(skin.tree.query(points[end], k=END_DENSITY_NEIGHBOURS + 1)[0][-1])
+    return skipped + 3.0 * reach**2 / (2.0 * END_DENSITY_NEIGHBOURS * tip_radius_mm)
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,

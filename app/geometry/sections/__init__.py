@@ -23,10 +23,10 @@ from app.geometry.sections.loop_smoothing import project_on_local_quadratics
 from app.geometry.sections.mesh import holed_sections, mesh_section_segments, sections_across_holes, slice_mesh_polar
 from app.geometry.sections.polar import PolarSections, largest_gap, polygon_centroid, polygon_perimeter, ray_angles
 
-__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "crossing_ends", "edge_crossings", "graph_sections", "group_median", "largest_gap",
-           "limb_crossings", "limb_graph", "mesh_section_segments", "neighbour_edges", "polygon_centroid",
-           "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar", "slice_points_polar",
-           "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
+__all__ = ["TAPE_BAND_OFFSETS_MM", "LimbGraph", "PolarSections", "crossing_ends", "edge_crossings", "graph_sections",
+           "group_median", "largest_gap", "limb_crossings", "limb_graph", "mesh_section_segments", "neighbour_edges",
+           "polygon_centroid", "polygon_perimeter", "project_on_local_quadratics", "ray_angles", "slice_mesh_polar",
+           "slice_points_polar", "slice_polar", "tape_band_girths", "tape_girths", "tape_sections"]
 
 #: a tape measure is a band about a centimetre wide, not a plane: a landmark's girth is
 #: read over the planes TAPE_BAND_OFFSETS_MM from it (mm) and the median taken.  At a

@@ -9,7 +9,7 @@ import pytest
 import trimesh
 from scipy.spatial import ConvexHull
 
-from app.geometry.anatomy.foot import BALL_WINDOW, foot_measures
+from app.geometry.anatomy.foot import BALL_WINDOW, chord_excess, foot_measures
 from app.geometry.placement.place import place_leg
 from app.geometry.sections import neighbour_edges
 from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
@@ -108,6 +108,7 @@ def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
     for a, b in ((mesh.foot_length, cloud.foot_length), (mesh.ball_girth, cloud.ball_girth),
                  (mesh.heel_instep_girth, cloud.heel_instep_girth)):
         assert a.value_mm == pytest.approx(b.value_mm, abs=3.0)
+        assert a.uncertainty_mm is None and b.uncertainty_mm is None  # nothing missed past the tolerances
     assert result.foot is not None and result.foot.ball_girth.value_mm == pytest.approx(mesh.ball_girth.value_mm)
 
 
@@ -126,6 +127,59 @@ def test_a_sole_taken_by_the_floor_and_a_cloud_sparse_on_one_side_read_as_the_wh
     for measured in (floor_cut, uneven):
         assert measured.ball_girth.value_mm == pytest.approx(whole.ball_girth.value_mm, abs=1.5)
         assert measured.heel_instep_girth.value_mm == pytest.approx(whole.heel_instep_girth.value_mm, abs=1.5)
+        # the floor's gap is bridged along the floor: no uncertainty stated
+        assert measured.ball_girth.uncertainty_mm is None and measured.heel_instep_girth.uncertainty_mm is None
+
+
+def test_a_sparse_sample_of_a_real_foot_says_how_much_it_may_read_short():
+    """A tenth of the Visible Human female leg's vertices (~200 on the foot, 5-15 mm
+    apart: a registered template's density) read cA 7-17 mm, cY 4-6 mm and the foot
+    6-11 mm short of the mesh: the record states each reading's uncertainty, and it
+    reaches the error (module docstring, "A sparse loop", "A sparse end"), with a
+    warning to take the point by tape."""
+    scan, result = fitted("vh_female_skin.glb", "right")
+    leg = place_leg(scan, "right")
+    local = leg.placement.frame.to_calf(leg.points)
+    mesh = foot_measures(local, leg.faces, result.sole_mm)
+    for seed in range(3):
+        sparse = foot_measures(local[np.random.default_rng(seed).random(len(local)) < 0.1], None, result.sole_mm)
+        for measured, reference, tolerance in ((sparse.foot_length, mesh.foot_length, 10.0),
+                                               (sparse.ball_girth, mesh.ball_girth, 3.0),
+                                               (sparse.heel_instep_girth, mesh.heel_instep_girth, 3.0)):
+            error = abs(measured.value_mm - reference.value_mm)
+            assert error <= tolerance or (measured.uncertainty_mm is not None and measured.uncertainty_mm >= error)
+        stated = [p.name for p in (sparse.foot_length, sparse.ball_girth, sparse.heel_instep_girth)
+                  if p.uncertainty_mm is not None]
+        assert "cA" in stated
+        assert len(sparse.warnings) == len(stated) and any("take cA by tape" in w for w in sparse.warnings)
+
+
+def test_a_loops_chords_are_bounded_by_its_neighbouring_edges():
+    """chord_excess on circles whose arcs are known: 36 points of a 40 mm circle (0.32 mm
+    short of it) are bounded, loosely - each edge's turn is counted in full at both of
+    its ends, about 12 times what a smooth arc's chords miss; a 90-degree gap (6.5 mm
+    short) is bounded by the neighbouring edges continued, 5.4 times; an arch's flat bottom missing on the floor (the tape
+    runs along the floor) is bounded by the floor, and without it by nothing (as deep
+    as the floor is put)."""
+    radius = 40.0
+    angles = np.linspace(0.0, 2 * np.pi, 36, endpoint=False)
+    circle = radius * np.column_stack([np.cos(angles), np.sin(angles)])
+    no_floor = (np.array([0.0, 1.0]), -1e9)
+    missed = 2 * np.pi * radius - ConvexHull(circle).area
+    assert missed <= chord_excess(circle, *no_floor) <= 13.0 * missed
+    open_circle = circle[angles < 1.5 * np.pi + 1e-9]  # 270 degrees of it
+    missed = 2 * np.pi * radius - ConvexHull(open_circle).area
+    assert missed > 6.0 and missed <= chord_excess(open_circle, *no_floor) <= 6.0 * missed
+    # an arch 60 mm wide: a half circle on upright sides down to 1 mm above the floor
+    # (y = 0), the floor itself gone: its bottom chord is 2 mm short of the tape along
+    # the floor; the bound adds 1.2 mm at each side, where the arch's last edge,
+    # continued, leaves room for a bulge beside the upright
+    top = np.linspace(0.0, np.pi, 37)
+    side = np.linspace(1.0, 30.0, 30)
+    arch = np.vstack([np.column_stack([np.zeros(30), side]), np.column_stack([np.full(30, 60.0), side]),
+                      np.column_stack([30.0 + 30.0 * np.cos(top), 30.0 + 30.0 * np.sin(top)])])
+    assert 2.0 <= chord_excess(arch, np.array([0.0, 1.0]), 0.0) <= 5.0
+    assert chord_excess(arch, *no_floor) > 1e9  # as deep as the floor is put
 
 
 def _makehuman_leg(subdivisions: int) -> tuple[np.ndarray, np.ndarray, float]:
