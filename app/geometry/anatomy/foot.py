@@ -181,13 +181,15 @@ class FootMeasures:
     def warnings(self) -> tuple[str, ...]:
         """A sentence for each girth a sparse loop leaves uncertain and for a foot length
         whose sparse ends do (module docstring)."""
-        length = self.foot_length.uncertainty_mm
-        return ((f"the foot length may read up to {length:.0f} mm short: the scan's points are too sparse at the "
-                 "heel or the toes to show where the foot ends; take the foot length by tape",) if length else ()) + tuple(f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short: the scan's points are too "
+        said = tuple(f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short: the scan's points are too "
                      f"sparse round the {where} for its tape loop to follow the skin (the loop's chords bridge its "
                      f"gaps); take {point.name} by tape (RAL-GZ 387)"
                      for point, where in ((self.ball_girth, "forefoot"), (self.heel_instep_girth, "heel and instep"))
                      if point.uncertainty_mm is not None)
+        if self.foot_length.uncertainty_mm is not None:
+            said += (f"the foot length may read up to {self.foot_length.uncertainty_mm:.0f} mm short: the scan's points "
+                     "are too sparse at the heel or the toes to show where the foot ends; take it by tape",)
+        return said
 
 
 def _xyz(point: np.ndarray) -> tuple[float, float, float]:
