@@ -15,7 +15,7 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   head) is 0.740 +- 0.014 of the foot length (6,068 subjects, tests/data/ansur2), and the
   fifth metatarsal head lies about 0.1 of the foot length behind the first; the ball
   girth is where the forefoot is largest over them: the largest tape girth (convex hull
-  of the section, :func:`_extreme_tape`) in vertical planes
+  of the section, :func:`app.geometry.anatomy.foot_loops.extreme_tape`) in vertical planes
   perpendicular to the foot axis from 0.62 to 0.78 of the foot length, every 2 mm.
 - **cY, the heel-instep diagonal.**  The tape passes round the back of the heel and over
   the front of the ankle (ANSUR II's heel-ankle circumference; RAL-GZ 387's "Fersen-Rist-
@@ -27,11 +27,6 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   degrees whose loop's far end lies over the ankle (0.15-0.55 of the foot length from
   the heel, not over the forefoot), cY is the shortest loop: a minimum, so the tilt's
   exact value matters to second order only (re-scans move a corner point, not a minimum).
-- **A cloud's sections** are read on its neighbour graph
-  (:mod:`app.geometry.sections.cloud_edges`): where the edges between mutual nearest
-  neighbours cross the plane.  A slab of points projected onto the plane read cY up to
-  15 mm long and cA up to 4 mm short on a body mesh's vertices (0.4-11 mm apart on one
-  foot), and a scanner's floor strays into cA 17 mm long.
 - **A cloud's stray points** (a scanner's ghosts off the skin) are not the foot's ends
   nor its heel's corner (:class:`app.geometry.anatomy.skin_points.Skin`): taken for them they
   read a foot 15-90 mm long and cY up to 65 mm short (the corpus's cloud_outliers).
@@ -46,26 +41,9 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   mm over (cY up to 2 mm short).  Judged on the spacing round each point instead, a
   scanner's streak off the heel passed as skin at its root (cY +1 mm), and judged on each
   point's reach against its neighbours' so did ghosts behind the heel (cY 6-8.5 mm short).
-- **A sparse loop** says what it may miss.  A tape's loop read from a cloud's crossings
-  is short where the cloud is sparse, two ways: its hull's chords bridge the gaps between
-  crossings (a body mesh's 700 vertices on a whole leg left the sole of the forefoot
-  without a crossing over 60 mm), and each crossing lies on its edge's chord, inside the
-  skin by t (1 - t) e^2 / 2 times the skin's curvature (e the edge, t where on it).  Real
-  legs read as 4,000-8,000 of their vertices read cA up to 34 mm and cY up to 15 mm short
-  of their meshes and said nothing (benchmarks/real_samples.py).  What the chords may
-  miss is bounded: a convex curve through the hull's vertices lies, over each edge, in
-  the triangle the edge makes with its neighbouring edges continued (the curve turns
-  the same way throughout), above the floor (the lower of the sole and the foot's lowest
-  skin: a standing forefoot lies within 12 mm of the heel's floor) - :func:`chord_excess`,
-  the triangles' two sides less the edge, summed.  The crossings' depth is estimated at
-  the loop's mean curvature, 2 pi / girth (exact on average round a closed convex curve),
-  and shortens the tape by 2 pi times it.  Their sum, over the tape's band (median), is
-  the girth's ``uncertainty_mm`` when more than GIRTH_TOLERANCE_MM (an order's 3 mm), with
-  a warning to take it by tape.  On a mesh it is 0.4-0.9 mm and on the generated scans'
-  dense clouds under the tolerance (benchmarks/chart_accuracy.py).  It is a bound, not
-  a correction, and a loose one: each edge's turn counts in full at both its ends, about
-  12 times what a smooth arc's chords miss (0.3 mm round a 36-gon), 5 times over a
-  90-degree gap - so a sparse cloud is warned about before it is wrong, never after.
+- **A sparse loop** says what it may miss (:mod:`app.geometry.anatomy.foot_loops`): cA
+  and cY carry ``uncertainty_mm`` when a cloud is too sparse round them for the loop to
+  follow the skin within an order's 3 mm, with a warning to take them by tape.
 - **A sparse end** likewise: the foot's ends are the third skin point from either end,
   so the foot may reach beyond each by the two skipped and, on a cloud, by the gap its
   sampling leaves before the tip: with k points within r of the end (density k / pi r^2),
@@ -85,23 +63,21 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
-from scipy.spatial import ConvexHull, cKDTree
+from scipy.spatial import cKDTree
 
 from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM
-from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
-from app.geometry.anatomy.level_runs import running_median
+from app.geometry.anatomy.foot_loops import (
+    chord_sags,
+    cloud_graph,
+    extreme_tape,
+    hull_girths,
+    plane_sections,
+    stated_shortfall,
+)
 from app.geometry.anatomy.skin_points import Skin
 from app.geometry.anatomy.sole import HEEL_HALF_BAND_MM
 from app.geometry.scan.mesh_parts import used_vertices
-from app.geometry.sections import (
-    TAPE_BAND_OFFSETS_MM,
-    crossing_ends,
-    edge_crossings,
-    largest_gap,
-    mesh_section_segments,
-    neighbour_edges,
-    project_on_local_quadratics,
-)
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM
 
 #: points this close to the sole (mm) are its footprint
 FOOTPRINT_MM = 25.0
@@ -135,11 +111,6 @@ END_INSET_MM = 6.0
 #: see the scan below this height (mm above B; the loop tops out 20-50 mm above B)
 INSTEP_TOP_MM = 80.0
 INSTEP_TOP_MARGIN_MM = 10.0
-#: the widest run of empty angle bins a loop may have, degrees (0.3 of the turn: a hole,
-#: the flat sole the floor's removal took - 80-110 degrees round the forefoot's centre -
-#: which the tape bridges; wider is no closed section).  Bins left empty one here and one
-#: there are the sampling's (about 3 points a bin: e^-3, 5%, of them empty), not a gap
-LOOP_MAX_GAP_DEG = 108.0
 #: a sparse end's sampling is read from this many nearest points round it, and the tip
 #: it may miss from the radius of the heel's back (app.geometry.anatomy.sole: a round heel
 #: of radius 25-30 mm, the lower taken) and of the big toe's tip (half its ~25 mm width), mm
@@ -217,151 +188,6 @@ def _below(points: np.ndarray, faces: np.ndarray | None, z_max: float,
     return points[used], below, None
 
 
-def _cloud_graph(points: np.ndarray, faces: np.ndarray | None) -> tuple[np.ndarray | None, cKDTree | None]:
-    """A cloud's neighbour graph (e, 2) its sections are read on
-    (:func:`app.geometry.sections.neighbour_edges`) and the k-d tree it was built on (the
-    heel's corner asks the same points which are skin); (None, None) for a mesh (its
-    sections are exact)."""
-    if faces is not None and len(faces):
-        return None, None
-    tree = cKDTree(points) if len(points) else None
-    return neighbour_edges(points, tree=tree), tree
-
-
-def _sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
-              basis: np.ndarray, offsets: np.ndarray) -> list[np.ndarray]:
-    """The sections (n_k, 2) of the planes {p : (p - origin) . basis[2] = offset},
-    ``offsets`` (k,) ascending, in the in-plane coordinates basis[0], basis[1] (basis (3, 3)
-    orthonormal rows): a mesh's exact plane-section segment ends
-    (:func:`app.geometry.sections.mesh_section_segments`), a cloud's crossings of its
-    neighbour graph's ``edges`` (e, 2) (:func:`app.geometry.sections.edge_crossings`)."""
-    q = (points - origin) @ basis.T
-    if faces is not None and len(faces):
-        plane, segments = mesh_section_segments(q, faces, offsets)
-        return [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
-    if edges is None:
-        raise ValueError("a cloud's sections are read on its neighbour graph: pass its edges")
-    plane, crossings = edge_crossings(q, edges, offsets)
-    return [crossings[plane == k] for k in range(len(offsets))]
-
-
-def _chord_sags(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
-                basis: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(k,) mm^2: per plane of :func:`_sections`, the mean over its crossings of
-    t (1 - t) e^2 / 2 (e the crossing's edge length, t where along it the plane lies):
-    times the skin's curvature, how far inside the skin a crossing on the edge's chord
-    lies (module docstring, "A sparse loop"); 0 for a mesh, whose sections are exact."""
-    if faces is not None and len(faces) or edges is None or not len(edges):
-        return np.zeros(len(offsets))
-    q = (points - origin) @ basis.T
-    plane, _, a, b, t = crossing_ends(q, edges, offsets)
-    sag = t * (1.0 - t) * np.sum((b - a) ** 2, axis=1) / 2.0
-    count = np.bincount(plane, minlength=len(offsets))
-    return np.bincount(plane, sag, minlength=len(offsets)) / np.maximum(count, 1)
-
-
-def _closed(section: np.ndarray) -> bool:
-    """Whether a section's points (n, 2) close round a loop a tape can be read on: 30 or
-    more points, and no run of empty bins of angle round their centroid (about 3 points
-    a bin, 36-360 bins) wider than LOOP_MAX_GAP_DEG.  A narrower gap is bridged by the
-    hull's straight chord, as a tape bridges it: a sole the floor's removal took off (the
-    plantar forefoot is flat and ~80 mm wide, so it leaves one wide gap) is the flat the
-    foot stood on."""
-    if len(section) < 30:
-        return False
-    rel = section - section.mean(axis=0)
-    angle = np.arctan2(rel[:, 1], rel[:, 0])
-    bins = int(np.clip(len(section) // 3, 36, 360))  # ~3 points a bin: a sparse ring gets wider bins
-    index = np.minimum(((angle + np.pi) * (bins / (2 * np.pi))).astype(np.int64), bins - 1)
-    filled = np.bincount(index, minlength=bins) > 0
-    return bool(largest_gap(filled[None])[0][0] <= LOOP_MAX_GAP_DEG)
-
-
-def _hull_girths(sections: list[np.ndarray]) -> np.ndarray:
-    """(k,) mm: the convex hull of each section's points as they are, NaN where not
-    :func:`_closed` - the ranking of planes the tape is then read on (:func:`_extreme_tape`:
-    a scanner's noise widens each by about as much, so the planes keep their order)."""
-    return np.array([ConvexHull(section).area if _closed(section) else np.nan for section in sections])
-
-
-def chord_excess(loop: np.ndarray, floor_gradient: np.ndarray, floor_level: float) -> float:
-    """How much longer (mm) than its convex hull's perimeter a convex curve through the
-    hull's vertices can be: the bound of :func:`app.geometry.anatomy.foot` module
-    docstring's "A sparse loop", summed over the hull's edges; inf where an edge's
-    neighbouring edges, continued, meet neither beyond it nor the floor (the loop turns
-    half round over it: no bound).  ``loop`` (n, 2) in-plane mm; the skin lies on the floor or above it:
-    in-plane points p with ``floor_gradient`` (2,) . p >= ``floor_level`` (mm)."""
-    vertices = loop[ConvexHull(loop).vertices]  # counter-clockwise
-    a, b = vertices, np.roll(vertices, -1, axis=0)
-    ahead = a - np.roll(vertices, 1, axis=0)  # the edge before a, continued past a
-    back = b - np.roll(vertices, -2, axis=0)  # the edge after b, continued back past b
-    chord = b - a
-    # a + s ahead = b + t back
-    det = back[:, 0] * ahead[:, 1] - ahead[:, 0] * back[:, 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = (back[:, 0] * chord[:, 1] - chord[:, 0] * back[:, 1]) / det
-        t = (ahead[:, 0] * chord[:, 1] - chord[:, 0] * ahead[:, 1]) / det
-    meets = np.isfinite(s) & np.isfinite(t) & (s >= 0) & (t >= 0)
-    apex = a + np.where(meets, s, 0.0)[:, None] * ahead
-    over = np.linalg.norm(apex - a, axis=1) + np.linalg.norm(apex - b, axis=1)
-    # where the corner lies below the floor (or, the edges not meeting, both run down to
-    # it), the curve is bounded by the floor between where they reach it
-    level_a = np.maximum(a @ floor_gradient, floor_level)
-    level_b = np.maximum(b @ floor_gradient, floor_level)
-    descent_a, descent_b = -(ahead @ floor_gradient), -(back @ floor_gradient)
-    down = (descent_a > 0) & (descent_b > 0)
-    floored = down & (~meets | (apex @ floor_gradient < floor_level))
-    if not (meets | floored).all():
-        return float("inf")
-    if floored.any():
-        enter = a + ((level_a - floor_level) / np.where(down, descent_a, 1.0))[:, None] * ahead
-        leave = b + ((level_b - floor_level) / np.where(down, descent_b, 1.0))[:, None] * back
-        along_floor = (np.linalg.norm(enter - a, axis=1) + np.linalg.norm(leave - enter, axis=1)
-                       + np.linalg.norm(b - leave, axis=1))
-        over = np.where(floored, along_floor, over)
-    return float(np.maximum(over - np.linalg.norm(chord, axis=1), 0.0).sum())
-
-
-def _stated(shortfall_mm: float, girth_mm: float) -> float | None:
-    """A girth's uncertainty as the record states it (mm): what its loop may miss when
-    more than an order's GIRTH_TOLERANCE_MM, at most the girth itself (a loop whose gap
-    has no bound, :func:`chord_excess`'s inf); None within the tolerance."""
-    return float(min(shortfall_mm, girth_mm)) if shortfall_mm > GIRTH_TOLERANCE_MM else None
-
-
-def _loop_girth(section: np.ndarray, floor: tuple[np.ndarray, float], chord_sag: float) -> tuple[float, float]:
-    """The tape girth (mm) of a closed section's points (n, 2): the convex hull of the
-    points moved onto the smooth curve they sample
-    (:func:`app.geometry.sections.project_on_local_quadratics`: a scanner's noise averaged
-    across the curve, a clean section's points left on it), and how much longer the skin
-    may be than that hull (:func:`chord_excess`, mm).  (The calf's polar fit,
-    :func:`app.geometry.sections.tape_girths`, is built for round sections: its few
-    harmonics cut the corners of a foot's long oblique loops by up to 15%.)"""
-    loop = project_on_local_quadratics(section)
-    girth = float(ConvexHull(loop).area)
-    # crossings inside the skin by chord_sag times its curvature, on average 2 pi / girth
-    # round a closed convex loop: the tape shorter by 2 pi times their mean depth
-    return girth, chord_excess(loop, *floor) + 4.0 * np.pi**2 * chord_sag / girth
-
-
-def _extreme_tape(sections: list[np.ndarray], coarse: np.ndarray, planes: int, largest: bool,
-                  floors: list[tuple[np.ndarray, float]], chord_sags: np.ndarray) -> tuple[int, float, float]:
-    """The tape band at the largest (or least) girth among the planes' ``sections`` (k
-    lists of (n, 2) points, in order), some closed: the band of ``planes`` (odd) neighbours
-    whose median ``coarse`` girth (k,) mm (:func:`_hull_girths`, NaN where not closed) is
-    largest (least), then its tape (:func:`_loop_girth`, median over the band's closed
-    sections) and how much longer the skin may be (the median of their chord excesses;
-    ``floors``, each plane's floor for :func:`chord_excess`).  The moving least squares costs ~1 ms a section, the hull
-    ~0.05: read on the band alone, the foot's 40 sections cost the fit ~15 ms, not ~170; near
-    the extreme the girth changes to second order, so the plane the raw hulls rank first
-    reads within a fraction of a millimetre of the one the tapes would.  (index, mm, mm)."""
-    band = np.where(np.isfinite(coarse), running_median(coarse, planes), np.nan)
-    best = int(np.nanargmax(band) if largest else np.nanargmin(band))
-    near = range(max(best - planes // 2, 0), min(best + planes // 2 + 1, len(sections)))
-    read = np.array([_loop_girth(sections[i], floors[i], chord_sags[i]) for i in near if np.isfinite(coarse[i])])
-    return best, float(np.median(read[:, 0])), float(np.median(read[:, 1]))
-
-
 def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float | None,
                   no_sole_reason: str | None = None) -> FootMeasures:
     """The foot length, cA and cY of the module docstring (mm), or why not: without a
@@ -371,7 +197,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
         return _not_measured(no_sole_reason or "the foot is not in the scan")
     # the part of the scan the heel-instep loop is read on, and a cloud's graph over it, once
     instep, instep_faces, _ = _below(points, faces, INSTEP_TOP_MM)
-    instep_edges, instep_tree = _cloud_graph(instep, instep_faces)
+    instep_edges, instep_tree = cloud_graph(instep, instep_faces)
     # the foot: below halfway from the sole to B (the forefoot is 40-55 mm high, B 100-150
     # mm above the sole; the shank's back above the heel would cut the heel's end planes)
     below_b, below_faces, edges = _below(instep, instep_faces, 0.5 * sole_mm, instep_edges)
@@ -405,20 +231,20 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     origin = sole_point - (sole_point @ axis) * axis
     lo, hi = heel_t + BALL_WINDOW[0] * length, heel_t + BALL_WINDOW[1] * length
     offsets = np.arange(lo, hi + 1e-9, BALL_STEP_MM)
-    window = _sections(below_b, below_faces, edges, origin, basis, offsets)
-    ends = _hull_girths(_sections(below_b, below_faces, edges, origin, basis,
-                                  np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
+    window = plane_sections(below_b, below_faces, edges, origin, basis, offsets)
+    ends = hull_girths(plane_sections(below_b, below_faces, edges, origin, basis,
+                       np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis),
                             uncertainty_mm=length_short if length_short > HIGH_CONFIDENCE_MM else None)
-    coarse = _hull_girths(window)
+    coarse = hull_girths(window)
     if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
     lowest = skin.first(every, below_b[:, 2])
     floor_level = min(sole_mm, float(below_b[lowest, 2])) - sole_mm if lowest is not None else 0.0
-    best, ball, ball_excess = _extreme_tape(window, coarse, BALL_BAND_PLANES, True,
-                                            [(np.array([0.0, 1.0]), floor_level)] * len(window),
-                                            _chord_sags(below_b, below_faces, edges, origin, basis, offsets))
+    best, ball, ball_excess = extreme_tape(window, coarse, BALL_BAND_PLANES, True,
+                                           [(np.array([0.0, 1.0]), floor_level)] * len(window),
+                                           chord_sags(below_b, below_faces, edges, origin, basis, offsets))
     cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
     if cut:
         reason = f"the {' and '.join(cut)} end in a section {max(ends):.0f} mm round, not a taper: the foot is cut"
@@ -426,9 +252,9 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
                             FootPoint("cY", None, reason=reason))
     ball_at = origin + offsets[best] * axis
     ball_point = FootPoint("cA", ball, _xyz(ball_at + (sole_mm + 25.0 - ball_at[2]) * basis[1]),
-                           uncertainty_mm=_stated(ball_excess, ball))
+                           uncertainty_mm=stated_shortfall(ball_excess, ball))
     return FootMeasures(foot_length, ball_point, _heel_instep(instep, instep_faces, axis, across, heel_t, length,
-                                                                 instep_edges, instep_tree, sole_mm + floor_level))
+                                                              instep_edges, instep_tree, sole_mm + floor_level))
 
 
 def _end_shortfall(points: np.ndarray, skin: Skin, along: np.ndarray, end: int, tip_radius_mm: float) -> float:
@@ -461,11 +287,11 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
     loops: list[np.ndarray] = []  # each tilt's section, empty where it is no heel-instep loop
     centres = np.zeros((len(tilts), 3))
-    chord_sags = np.zeros(len(tilts))
+    depths = np.zeros(len(tilts))  # each loop's chord_sags
     for k, tilt in enumerate(tilts):  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
-        section = _sections(points, faces, edges, heel, basis, np.array([0.0]))[0]  # once per plane
+        section = plane_sections(points, faces, edges, heel, basis, np.array([0.0]))[0]  # once per plane
         loops.append(section[:0])
         if not len(section):
             continue
@@ -475,17 +301,17 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
         # (a loop reaching the part's cut is not closed)
         if over_ankle and far[2] <= INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:
             loops[k], centres[k] = section, (heel + far) / 2
-            chord_sags[k] = _chord_sags(points, faces, edges, heel, basis, np.array([0.0]))[0]
-    coarse = _hull_girths(loops)
+            depths[k] = chord_sags(points, faces, edges, heel, basis, np.array([0.0]))[0]
+    coarse = hull_girths(loops)
     if not np.isfinite(coarse).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "
                                             "(a hole or a crop)")
     # the shortest of the loops, each read as the median of it and its neighbouring tilts:
     # the least of single loops is biased down by their noise, as the ball girth's largest up
-    best, girth, excess = _extreme_tape(loops, coarse, INSTEP_BAND_PLANES, False,
-                                        [(np.array([0.0, np.sin(tilt)]), floor_z - heel[2]) for tilt in tilts],
-                                        chord_sags)
-    return FootPoint("cY", girth, _xyz(centres[best]), uncertainty_mm=_stated(excess, girth))
+    best, girth, excess = extreme_tape(loops, coarse, INSTEP_BAND_PLANES, False,
+                                       [(np.array([0.0, np.sin(tilt)]), floor_z - heel[2]) for tilt in tilts],
+                                       depths)
+    return FootPoint("cY", girth, _xyz(centres[best]), uncertainty_mm=stated_shortfall(excess, girth))
 
 
 def _heel_corner(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray, heel_t: float,
@@ -502,8 +328,8 @@ def _heel_corner(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     # from its end (the mesh's plane section, a cloud's crossings of its neighbour graph,
     # which joins no stray to the skin), over the section's lowest HEEL_MIDDLE_SPAN_MM (the
     # heel proper, not the back of the shank above it), the third point from either side
-    section = _sections(points, faces, edges, np.zeros(3), np.array([across, up, axis]),
-                        np.array([heel_t + HEEL_MIDDLE_SPAN_MM / 2.0]))[0]
+    section = plane_sections(points, faces, edges, np.zeros(3), np.array([across, up, axis]),
+                             np.array([heel_t + HEEL_MIDDLE_SPAN_MM / 2.0]))[0]
     heel_proper = section[section[:, 1] < section[:, 1].min() + HEEL_MIDDLE_SPAN_MM, 0] if len(section) else section
     if len(heel_proper) < 6:
         return None
