@@ -36,7 +36,7 @@ def _styles():
 def _value(m: dict) -> str:
     if m["value_mm"] is None:
         return "not measured"
-    if m.get("uncertainty_mm") is not None:  # a girth: the warnings say why; a length: its point's height tolerance
+    if m.get("uncertainty_mm") is not None:  # the warnings say why (a girth, the foot length) or its point's height tolerance
         return f"{m['value_mm']:.1f} mm &plusmn; {m['uncertainty_mm']:.0f}"
     return f"{m['value_mm']:.1f} mm"
 

@@ -306,11 +306,13 @@ function orderPoints(chart) {
 
 // a measured point's value, with how far it may be off where the scan leaves its place
 // uncertain: a girth a tape decides; a length whose point's height is uncertain (a flat
-// calf crown) reads the same girth anywhere along it, and a tape has the same choice
+// calf crown) reads the same girth anywhere along it, and a tape has the same choice; the
+// foot length where the scan is too sparse at the heel or the toes to show the foot's end
 function pointValue(p) {
   if (p.value_mm == null) return `not in the scan: ${p.reason}`;
   if (p.uncertainty_mm == null) return `${mm(p.value_mm)} mm`;
-  const why = p.kind === 'length' ? 'the point\'s height is uncertain' : 'uncertain: take by tape';
+  const why = p.point === 'foot_length' ? 'the foot\'s ends are uncertain: take by tape'
+    : p.kind === 'length' ? 'the point\'s height is uncertain' : 'uncertain: take by tape';
   return `${mm(p.value_mm)} mm ± ${mm(p.uncertainty_mm)} (${why})`;
 }
 
