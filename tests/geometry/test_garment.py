@@ -1,5 +1,7 @@
 """Stocking designs (app.geometry.garment.design): targets met, graded, refused with a reason."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import trimesh
@@ -98,7 +100,7 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
 def test_the_verdict_is_pass_only_without_failed_checks_and_hot_spots():
     """fail on a normative check, review on an advisory check or a hot spot (with where
     it is), pass only when nothing is left to look at."""
-    from dataclasses import replace
+
 
     from app.geometry.garment.design import DesignCheck, design_verdict
     from app.geometry.garment.pressure import HotSpot
@@ -118,7 +120,8 @@ def test_a_thigh_high_graded_from_an_uncertain_girth_is_for_review():
     """The BodyParts3D leg reaches its gluteal fold (a crease: no uncertainty): its AG
     design passes or not on its checks alone; the same record whose chart says cG is
     uncertain by 7 mm (a smooth fold, app.geometry.anatomy.thigh) gives "review" with
-    the point named, and a knee-high, which is not graded from cG, is not affected."""
+    the point named, and a knee-high, which is not graded from cG, is not affected; an
+    uncertain cA (a sparse foot, app.geometry.anatomy.foot_loops) is for review on both."""
     from app.records.codec import record_from_fit
 
     scan, result = fitted("bodyparts3d_right_leg.stl", None)
@@ -135,6 +138,14 @@ def test_a_thigh_high_graded_from_an_uncertain_girth_is_for_review():
         assert verdict == "review"
     knee_high = design_stocking(record.surface, record.landmarks, "right", DesignInputs(compression_class="II"), chart)
     assert knee_high.uncertain_inputs == ()
+    # every stocking has a foot knitted from cA and cY: a sparse foot's cA is for review on both
+    sparse_foot = {**record.chart, "cA": {**record.chart["cA"], "uncertainty_mm": 12.4}}
+    for stocking_type in ("AD", "AG"):
+        design = design_stocking(record.surface, record.landmarks, "right",
+                                 replace(inputs, stocking_type=stocking_type), sparse_foot)
+        assert design.uncertain_inputs == ("cA is uncertain by about 12 mm (the record's warnings say why): "
+                                           "take cA by tape (RAL-GZ 387) before knitting",)
+        assert design.verdict[0] in ("review", "fail")
 
 
 def test_a_design_from_a_surface_off_the_skin_is_for_review():
