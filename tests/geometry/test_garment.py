@@ -100,8 +100,6 @@ def test_real_legs_meet_class_ii_at_b_and_grade_down(file, side):
 def test_the_verdict_is_pass_only_without_failed_checks_and_hot_spots():
     """fail on a normative check, review on an advisory check or a hot spot (with where
     it is), pass only when nothing is left to look at."""
-
-
     from app.geometry.garment.design import DesignCheck, design_verdict
     from app.geometry.garment.pressure import HotSpot
 
