@@ -50,7 +50,10 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   a tip of radius R (the heel's 25 mm, the big toe's 12) holds no point over a depth
   r^2 / 2kR on average, three times that in 95 cases of 100 (the gap is exponential).
   Their sum is the foot length's ``uncertainty_mm`` when more than a measuring point's
-  10 mm (HIGH_CONFIDENCE_MM).
+  10 mm (HIGH_CONFIDENCE_MM), at most the length itself.  The real legs read from
+  4,000-8,000 of their vertices state it 11 times, each reaching the error (the 3 errors
+  past 10 mm among them; benchmarks/real_samples.py); the generated re-scans never
+  (benchmarks/chart_accuracy.py 8 11).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
   0.7 of the ball girth: a crop, not a toe) says why.
@@ -235,7 +238,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     ends = hull_girths(plane_sections(below_b, below_faces, edges, origin, basis,
                        np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis),
-                            uncertainty_mm=length_short if length_short > HIGH_CONFIDENCE_MM else None)
+                            uncertainty_mm=min(length_short, length) if length_short > HIGH_CONFIDENCE_MM else None)
     coarse = hull_girths(window)
     if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
