@@ -183,13 +183,16 @@ def test_a_thigh_high_design_and_order_run_on_to_g_and_a_leg_without_its_thigh_i
 
 def test_a_girth_the_scan_leaves_uncertain_is_said_in_the_measurements_the_verdict_and_the_order(client, design):
     """The BodyParts3D record imported with its chart saying cG is uncertain by 6.6 mm (as
-    a smooth gluteal fold makes it, app.geometry.anatomy.thigh): its measurements give
-    the uncertainty, its thigh-high design is "review" naming cG, and the order's table
-    (JSON and PDF) gives cG with it."""
+    a smooth gluteal fold makes it, app.geometry.anatomy.thigh) and cA by 12.4 and the
+    foot length by 14 (a sparse foot, app.geometry.anatomy.foot): its measurements give
+    the uncertainties, its thigh-high design is "review" naming cG and cA, and the
+    order's table (JSON and PDF) gives them."""
     original = client.get(f"/api/v1/records/{design['record_id']}").json()
     for key in ("id", "source", "created_at", "scan_id"):
         original.pop(key, None)
     original["chart"]["cG"]["uncertainty_mm"] = 6.6
+    original["chart"]["cA"]["uncertainty_mm"] = 12.4  # a sparse foot (app.geometry.anatomy.foot_loops)
+    original["chart"]["foot_length"]["uncertainty_mm"] = 14.0
     created = client.post("/api/v1/records", json=original)
     assert created.status_code == 201, created.text
     record_id = created.json()["id"]
@@ -197,15 +200,17 @@ def test_a_girth_the_scan_leaves_uncertain_is_said_in_the_measurements_the_verdi
         assert created.json()["chart"]["cG"]["uncertainty_mm"] == 6.6
         points = {m["point"]: m for m in client.get(f"/api/v1/records/{record_id}/measurements").json()["chart"]}
         assert points["cG"]["uncertainty_mm"] == 6.6 and points["cE"]["uncertainty_mm"] is None
+        assert points["cA"]["uncertainty_mm"] == 12.4 and points["foot_length"]["uncertainty_mm"] == 14.0
         made = client.post(f"/api/v1/records/{record_id}/designs",
                            json={"compression_class": "II", "stocking_type": "AG", "fabric": {"stiffness_n_per_cm": 10.0}})
         assert made.status_code == 201, made.text
         ag = made.json()
         assert ag["verdict"] in ("review", "fail") and any(r.startswith("cG is uncertain by about 7 mm") for r in ag["verdict_reasons"])
+        assert any(r.startswith("cA is uncertain by about 12 mm") for r in ag["verdict_reasons"])
         order = client.get(f"/api/v1/designs/{ag['id']}/order").json()
         assert {m["point"]: m for m in order["measurements"]}["cG"]["uncertainty_mm"] == 6.6
         pdf = client.get(f"/api/v1/designs/{ag['id']}/order", params={"format": "pdf"})
         text = "".join(p.extract_text() for p in pypdf.PdfReader(io.BytesIO(pdf.content)).pages)
-        assert "± 7" in text and "cG is uncertain" in text
+        assert "± 7" in text and "cG is uncertain" in text and "± 12" in text
     finally:
         assert client.delete(f"/api/v1/records/{record_id}").status_code == 204
