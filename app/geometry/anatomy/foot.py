@@ -243,6 +243,9 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     if not np.isfinite(coarse).any():
         reason = "the forefoot has no closed section over the metatarsal heads (a hole or a crop)"
         return FootMeasures(foot_length, FootPoint("cA", None, reason=reason), FootPoint("cY", None, reason=reason))
+    # the floor the loops stand on (what a sparse loop may miss stays above it): the sole
+    # plane, or the foot's lowest skin where lower (a standing forefoot lies within 12 mm
+    # of the heel's floor, app.geometry.anatomy.sole); in the ball planes, up from the sole
     lowest = skin.first(every, below_b[:, 2])
     floor_level = min(sole_mm, float(below_b[lowest, 2])) - sole_mm if lowest is not None else 0.0
     best, ball, ball_excess = extreme_tape(window, coarse, BALL_BAND_PLANES, True,
