@@ -56,7 +56,11 @@ Frame: the calf frame (mm; z up the leg from B = 0, y anterior, x the subject's 
   (benchmarks/chart_accuracy.py 8 11).
 - **A foot that is not all there** is not measured: a footprint shorter than 150 mm, or
   an end that does not taper (the section 6 mm inside the toe or heel end is more than
-  0.7 of the ball girth: a crop, not a toe) says why.
+  0.7 of the ball girth: a crop, not a toe) says why.  A cloud sampled more than 6 mm
+  apart round that end (its sixth nearest point farther) reads the inset section on
+  chords across the end, not on its skin (the MakeHuman leg's 1,636 unsubdivided
+  vertices: a heel 173 mm round 6 mm in): the reason then says the scan may be too
+  sparse there to tell a cut from a taper, and how sparse.
 """
 
 from __future__ import annotations
@@ -222,8 +226,9 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
         return _not_measured("the scan has too few points near the sole to find the foot")
     heel_t, toe_t = float(along[heel_end]), float(along[toe_end])
     length = float(toe_t - heel_t)
-    length_short = (_end_shortfall(below_b, skin, along, heel_end, HEEL_RADIUS_MM)
-                    + _end_shortfall(below_b, skin, -along, toe_end, TOE_TIP_RADIUS_MM))
+    reaches = (_end_reach(below_b, skin, heel_end), _end_reach(below_b, skin, toe_end))  # heel, toes
+    length_short = (_end_shortfall(skin, along, heel_end, reaches[0], HEEL_RADIUS_MM)
+                    + _end_shortfall(skin, -along, toe_end, reaches[1], TOE_TIP_RADIUS_MM))
     if length < MIN_FOOT_MM:
         return _not_measured(f"the foot in the scan is {length:.0f} mm long, shorter than any foot "
                              f"({MIN_FOOT_MM:.0f} mm): it is cut")
@@ -251,9 +256,14 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     best, ball, ball_excess = extreme_tape(window, coarse, BALL_BAND_PLANES, True,
                                            [(np.array([0.0, 1.0]), floor_level)] * len(window),
                                            chord_sags(below_b, below_faces, edges, origin, basis, offsets))
-    cut = [name for name, g in zip(("heel", "toes"), ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
+    cut = [k for k, g in enumerate(ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
     if cut:
-        reason = f"the {' and '.join(cut)} end in a section {max(ends):.0f} mm round, not a taper: the foot is cut"
+        reason = (f"the {' and '.join(('heel', 'toes')[k] for k in cut)} end in a section {max(ends):.0f} mm round, "
+                  "not a taper: the foot is cut")
+        if max(reaches[k] for k in cut) > END_INSET_MM:
+            # the inset section's crossings are chords across the end, not its skin
+            reason += (f", or the scan is too sparse there to tell (its points lie {max(reaches[k] for k in cut):.0f} "
+                       f"mm apart round the end, more than the {END_INSET_MM:.0f} mm inside it the taper is read at)")
         return FootMeasures(FootPoint("foot_length", None, reason=reason), FootPoint("cA", None, reason=reason),
                             FootPoint("cY", None, reason=reason))
     ball_at = origin + offsets[best] * axis
@@ -263,18 +273,24 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
                                                               instep_edges, instep_tree, sole_mm + floor_level))
 
 
-def _end_shortfall(points: np.ndarray, skin: Skin, along: np.ndarray, end: int, tip_radius_mm: float) -> float:
+def _end_reach(points: np.ndarray, skin: Skin, end: int) -> float:
+    """How far round the foot's ``end`` (a point's index) a cloud samples it: the distance
+    to its END_DENSITY_NEIGHBOURS-th nearest point, mm (0 on a mesh, whose end is its
+    extreme vertex).  ``points`` (n, 3) mm."""
+    if skin.tree is None:
+        return 0.0
+    return float(skin.tree.query(points[end], k=END_DENSITY_NEIGHBOURS + 1)[0][-1])
+
+
+def _end_shortfall(skin: Skin, along: np.ndarray, end: int, reach_mm: float, tip_radius_mm: float) -> float:
     """How far (mm) the foot's end may lie beyond the point read as it, ``end`` (the
     third skin point in the order of ``along`` (n,), mm): the two points skipped before
     it, and on a cloud the gap its sampling may leave before the tip (module docstring,
-    "A sparse end"): 3 r^2 / (2 k ``tip_radius_mm``), r the distance to its k-th
-    nearest point (k = END_DENSITY_NEIGHBOURS).  ``points`` (n, 3) mm."""
-    first = skin.first(np.arange(len(points)), along)
+    "A sparse end"): 3 r^2 / (2 k ``tip_radius_mm``), r = ``reach_mm``
+    (:func:`_end_reach`, k = END_DENSITY_NEIGHBOURS)."""
+    first = skin.first(np.arange(len(along)), along)
     skipped = float(along[end] - along[first]) if first is not None else 0.0
-    if skin.tree is None:  # a mesh's end is its extreme vertex
-        return skipped
-    reach = float(skin.tree.query(points[end], k=END_DENSITY_NEIGHBOURS + 1)[0][-1])
-    return skipped + 3.0 * reach**2 / (2.0 * END_DENSITY_NEIGHBOURS * tip_radius_mm)
+    return skipped + 3.0 * reach_mm**2 / (2.0 * END_DENSITY_NEIGHBOURS * tip_radius_mm)
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,

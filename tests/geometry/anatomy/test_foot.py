@@ -4,6 +4,8 @@ vertices."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 import trimesh
@@ -90,8 +92,25 @@ def test_a_cut_foot_and_a_scan_without_its_foot_say_why():
     cut = foot_measures(_phantom(toe_cut_y=150.0), None, SOLE)  # the toes cut 35 mm short
     assert cut.foot_length.value_mm is None and "cut" in cut.foot_length.reason
     assert cut.ball_girth.value_mm is None and cut.heel_instep_girth.reason == cut.foot_length.reason
+    assert "too sparse" not in cut.foot_length.reason  # a dense cloud's cut is a cut
     none = foot_measures(_phantom(), None, None)
     assert none.ball_girth.value_mm is None and none.ball_girth.reason == "the foot is not in the scan"
+
+
+def test_a_foot_too_sparse_to_tell_a_cut_from_a_taper_says_so():
+    """The MakeHuman leg's unsubdivided vertices (1,636 on the leg, 11 mm apart round the
+    heel): the section 6 mm inside the heel reads its chords across the heel's back, 173
+    mm round, not its skin.  The foot is not measured, and the reason says the scan may
+    be too sparse there to tell, with how sparse; its mesh reads cA as the finer mesh's
+    (within 3 mm)."""
+    vertices, faces, sole = _makehuman_leg(0)
+    sparse = foot_measures(vertices, None, sole)
+    assert sparse.ball_girth.value_mm is None
+    assert re.search(r"or the scan is too sparse there to tell \(its points lie \d+ mm apart round the end",
+                     sparse.ball_girth.reason)
+    finer, finer_faces, finer_sole = _makehuman_leg(2)
+    assert foot_measures(vertices, faces, sole).ball_girth.value_mm == pytest.approx(
+        foot_measures(finer, finer_faces, finer_sole).ball_girth.value_mm, abs=3.0)
 
 
 def test_a_real_foot_reads_the_same_as_a_mesh_and_as_its_vertices():
