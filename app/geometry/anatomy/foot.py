@@ -74,10 +74,10 @@ from scipy.spatial import cKDTree
 
 from app.geometry.anatomy.feature_layers import HIGH_CONFIDENCE_MM
 from app.geometry.anatomy.foot_loops import (
-    chord_sags,
     cloud_graph,
     extreme_tape,
     hull_girths,
+    loop_sections,
     plane_sections,
     stated_shortfall,
 )
@@ -239,7 +239,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     origin = sole_point - (sole_point @ axis) * axis
     lo, hi = heel_t + BALL_WINDOW[0] * length, heel_t + BALL_WINDOW[1] * length
     offsets = np.arange(lo, hi + 1e-9, BALL_STEP_MM)
-    window = plane_sections(below_b, below_faces, edges, origin, basis, offsets)
+    window, window_sags = loop_sections(below_b, below_faces, edges, origin, basis, offsets)
     ends = hull_girths(plane_sections(below_b, below_faces, edges, origin, basis,
                        np.array([heel_t + END_INSET_MM, toe_t - END_INSET_MM])))
     foot_length = FootPoint("foot_length", length, _xyz(origin + (heel_t + toe_t) / 2 * axis),
@@ -255,7 +255,7 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     floor_level = min(sole_mm, float(below_b[lowest, 2])) - sole_mm if lowest is not None else 0.0
     best, ball, ball_excess = extreme_tape(window, coarse, BALL_BAND_PLANES, True,
                                            [(np.array([0.0, 1.0]), floor_level)] * len(window),
-                                           chord_sags(below_b, below_faces, edges, origin, basis, offsets))
+                                           window_sags)
     cut = [k for k, g in enumerate(ends) if np.isfinite(g) and g > END_TAPER_SHARE * ball]
     if cut:
         reason = (f"the {' and '.join(('heel', 'toes')[k] for k in cut)} end in a section {max(ends):.0f} mm round, "
@@ -309,11 +309,12 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
     tilts = np.radians(np.arange(INSTEP_TILT_DEG[0], INSTEP_TILT_DEG[1] + 1e-9, INSTEP_STEP_DEG))
     loops: list[np.ndarray] = []  # each tilt's section, empty where it is no heel-instep loop
     centres = np.zeros((len(tilts), 3))
-    depths = np.zeros(len(tilts))  # each loop's chord_sags
+    depths = np.zeros(len(tilts))  # each loop's chord sag (loop_sections)
     for k, tilt in enumerate(tilts):  # ~20 planes, each vectorised over the points
         in_plane = np.cos(tilt) * axis + np.sin(tilt) * up
         basis = np.array([across, in_plane, np.cross(across, in_plane)])
-        section = plane_sections(points, faces, edges, heel, basis, np.array([0.0]))[0]  # once per plane
+        sections, sags = loop_sections(points, faces, edges, heel, basis, np.array([0.0]))  # once per plane
+        section = sections[0]
         loops.append(section[:0])
         if not len(section):
             continue
@@ -323,7 +324,7 @@ def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray,
         # (a loop reaching the part's cut is not closed)
         if over_ankle and far[2] <= INSTEP_TOP_MM - INSTEP_TOP_MARGIN_MM:
             loops[k], centres[k] = section, (heel + far) / 2
-            depths[k] = chord_sags(points, faces, edges, heel, basis, np.array([0.0]))[0]
+            depths[k] = sags[0]
     coarse = hull_girths(loops)
     if not np.isfinite(coarse).any():
         return FootPoint("cY", None, reason="no closed loop round the heel and over the front of the ankle "

@@ -43,7 +43,6 @@ from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
 from app.geometry.anatomy.level_runs import running_median
 from app.geometry.sections import (
     crossing_ends,
-    edge_crossings,
     largest_gap,
     mesh_section_segments,
     neighbour_edges,
@@ -75,29 +74,28 @@ def plane_sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarr
     orthonormal rows): a mesh's exact plane-section segment ends
     (:func:`app.geometry.sections.mesh_section_segments`), a cloud's crossings of its
     neighbour graph's ``edges`` (e, 2) (:func:`app.geometry.sections.edge_crossings`)."""
+    return loop_sections(points, faces, edges, origin, basis, offsets)[0]
+
+
+def loop_sections(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
+                  basis: np.ndarray, offsets: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
+    """:func:`plane_sections` and, per plane, its chord sag (k,) mm^2: the mean over its
+    crossings of t (1 - t) e^2 / 2 (e the crossing's edge length, t where along it the
+    plane lies) - times the skin's curvature, how far inside the skin a crossing on the
+    edge's chord lies (module docstring, "A sparse loop"); 0 for a mesh, whose sections
+    are exact.  One pass over the edges for both."""
     q = (points - origin) @ basis.T
     if faces is not None and len(faces):
         plane, segments = mesh_section_segments(q, faces, offsets)
-        return [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))]
+        return [segments[plane == k].reshape(-1, 2) for k in range(len(offsets))], np.zeros(len(offsets))
     if edges is None:
         raise ValueError("a cloud's sections are read on its neighbour graph: pass its edges")
-    plane, crossings = edge_crossings(q, edges, offsets)
-    return [crossings[plane == k] for k in range(len(offsets))]
-
-
-def chord_sags(points: np.ndarray, faces: np.ndarray | None, edges: np.ndarray | None, origin: np.ndarray,
-               basis: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(k,) mm^2: per plane of :func:`plane_sections`, the mean over its crossings of
-    t (1 - t) e^2 / 2 (e the crossing's edge length, t where along it the plane lies):
-    times the skin's curvature, how far inside the skin a crossing on the edge's chord
-    lies (module docstring, "A sparse loop"); 0 for a mesh, whose sections are exact."""
-    if faces is not None and len(faces) or edges is None or not len(edges):
-        return np.zeros(len(offsets))
-    q = (points - origin) @ basis.T
-    plane, _, a, b, t = crossing_ends(q, edges, offsets)
+    plane, _, a, b, t = crossing_ends(q, edges, offsets)  # as edge_crossings reads them
+    crossings = a[:, :2] + t[:, None] * (b[:, :2] - a[:, :2])
     sag = t * (1.0 - t) * np.sum((b - a) ** 2, axis=1) / 2.0
     count = np.bincount(plane, minlength=len(offsets))
-    return np.bincount(plane, sag, minlength=len(offsets)) / np.maximum(count, 1)
+    sags = np.bincount(plane, sag, minlength=len(offsets)) / np.maximum(count, 1)
+    return [crossings[plane == k] for k in range(len(offsets))], sags
 
 
 def closed_loop(section: np.ndarray) -> bool:
@@ -193,7 +191,7 @@ def extreme_tape(sections: list[np.ndarray], coarse: np.ndarray, planes: int, la
     largest (least), then its tape (:func:`loop_girth`, median over the band's closed
     sections) and how much longer the skin may be (the median of their shortfalls,
     :func:`loop_girth`: ``floors``, each plane's floor for :func:`chord_excess`,
-    ``chord_sags`` (k,) its crossings' :func:`chord_sags`).  The moving least squares costs
+    ``chord_sags`` (k,) its crossings' sags, :func:`loop_sections`).  The moving least squares costs
     ~1 ms a section, the hull ~0.05: read on the band alone, the foot's 40 sections cost
     the fit ~15 ms, not ~170; near the extreme the girth changes to second order, so the
     plane the raw hulls rank first reads within a fraction of a millimetre of the one the

@@ -222,20 +222,20 @@ def _other_leg(clean: CleanScan, placement: LegPlacement) -> OtherLeg | None:
     return other_leg_beside(placement.frame.to_calf(clean.points), placement.d_mm, pixel)
 
 
-def _why_not_placed(failures: list[tuple[int, np.ndarray, FitFailure]], leg: str) -> str:
+def _why_not_placed(failures: list[tuple[_Candidate, FitFailure]], leg: str) -> str:
     """Why the ``leg`` beside the placed one (its words: "the right leg, 343 mm to its
     right") was not placed: the refusal of the
     largest part of the scan that could not be placed (that leg; its first sentence, the
     rest is how to scan a leg, said once after), with how densely a cloud samples it -
     a cloud's far leg is often its sparse one - or that no ankle, calf and knee waist
-    were found on it.  ``failures``: (points, points (n, 3) mm, refusal) per part."""
+    were found on it.  ``failures``: (part, its refusal) per part not placed."""
     if not failures:
         return f"no ankle, calf and knee waist were found on {leg}"
-    count, points, failure = max(failures, key=lambda f: f[0])
+    part, failure = max(failures, key=lambda f: f[0].n_points)
     first = str(failure).split(". ")[0].rstrip(".")
-    length = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
-    density = f", {count / length:.1f} per mm of its length" if length > 0 else ""
-    return f"{leg} ({count} points{density}), was refused: {first}"
+    length = float(np.ptp(part.points, axis=0).max()) if len(part.points) else 0.0
+    density = f", {part.n_points / length:.1f} per mm of its length" if length > 0 else ""
+    return f"{leg} ({part.n_points} points{density}), was refused: {first}"
 
 
 def _describe(placement: LegPlacement, side: str, points: int) -> str:
@@ -284,7 +284,7 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     if clean.n_spike_faces:
         warnings.append(f"{clean.n_spike_faces} needle triangles (spikes) were removed")
     legs: list[tuple[_Candidate, LegPlacement]] = []
-    failures: list[tuple[int, np.ndarray, FitFailure]] = []
+    failures: list[tuple[_Candidate, FitFailure]] = []
     for candidate in _candidates(clean):
         extent = np.ptp(candidate.points, axis=0).max() if len(candidate.points) else 0.0
         if extent < MIN_LEG_LENGTH_MM and len(clean.pieces) > 1:
@@ -292,10 +292,10 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         try:
             legs.append((candidate, _placement_of(place_candidate(candidate.points, candidate.faces, candidate.up), scan.mm_per_unit)))
         except FitFailure as failure:
-            failures.append((candidate.n_points, candidate.points, failure))
+            failures.append((candidate, failure))
     if not legs:
         if failures:
-            raise max(failures, key=lambda f: f[0])[2]
+            raise max(failures, key=lambda f: f[0].n_points)[1]
         raise FitFailure(FailureReason.NOT_A_LEG, "no part of the scan is long enough to be a lower leg")
     ignored = len(clean.pieces) - len({c.piece for c, _ in legs})
     if ignored > 0:
