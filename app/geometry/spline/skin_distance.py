@@ -131,25 +131,39 @@ def _offsets_to_mesh(samples: np.ndarray, vertices: np.ndarray, faces: np.ndarra
     coarse calf they read a sample on the skin 8.8 mm off); its centroid is near.  Not a
     proof of the closest (a bounding-volume search would be): measured on BodyParts3D's
     27k-face leg against the distance to points every 2 mm on every triangle, 12 centroids
-    are never further on any of 6,192 samples, 4 were up to 0.9 mm further on 12."""
-    _, nearest = cKDTree(vertices).query(samples, k=NEAREST_VERTICES)
+    are never further on any of 6,192 samples, 4 were up to 0.9 mm further on 12.
+
+    Only the candidates that may be nearest are measured exactly: a triangle lies in the
+    ball about its centroid through its furthest corner, so it is at least the distance
+    to its centroid less that ball's radius away, and a candidate whose bound passes the
+    sample's nearest vertex (a point on its own triangles, which are candidates) cannot be
+    the nearest.  The offsets are those of every candidate measured; about half the
+    exact distances are left out (benchmarks/bench_fit.py, the fit's time)."""
+    reach, nearest = cKDTree(vertices).query(samples, k=NEAREST_VERTICES)
     table = _faces_of_vertices(faces, len(vertices))
     centroids = vertices[faces].mean(axis=1)
-    _, near_faces = cKDTree(centroids).query(samples, k=min(NEAREST_TRIANGLES, len(faces)))
+    ball = np.sqrt(np.max(np.sum((vertices[faces] - centroids[:, None, :]) ** 2, axis=2), axis=1))  # (f,)
+    to_centroid, near_faces = cKDTree(centroids).query(samples, k=min(NEAREST_TRIANGLES, len(faces)))
+    # the nearest vertex and the nearest centroid are points on the mesh: the closest is no further
+    bound = np.minimum(reach.reshape(len(samples), -1)[:, 0], to_centroid.reshape(len(samples), -1)[:, 0])
     candidates = np.sort(np.concatenate([table[nearest].reshape(len(samples), -1), near_faces.reshape(len(samples), -1)],
                                         axis=1), axis=1)  # (s, k * F + t), the -1 padding first
     # each triangle once (a triangle round two of the nearest vertices is also among the
-    # nearest centroids), the distinct (sample, triangle) pairs flattened row by row: a
-    # row has ~16 of its 36 columns distinct, so the exact distance runs on those alone
+    # nearest centroids), the distinct (sample, triangle) pairs flattened row by row
     distinct = candidates >= 0
     distinct[:, 1:] &= candidates[:, 1:] != candidates[:, :-1]
     sample = np.nonzero(distinct)[0]  # (p,) rising: each sample's pairs are contiguous
-    tri = faces[candidates[distinct]]  # (p, 3)
+    face = candidates[distinct]
+    gap = samples[sample] - centroids[face]
+    may_be_nearest = np.sqrt(np.einsum("pd,pd->p", gap, gap)) - ball[face] <= bound[sample] + 1e-6
+    sample, face = sample[may_be_nearest], face[may_be_nearest]
+    tri = faces[face]  # (p, 3)
     away = point_triangle_offsets(samples[sample], vertices[tri[:, 0]], vertices[tri[:, 1]],
                                   vertices[tri[:, 2]])  # (p, 3): sample - closest point
     distance = np.einsum("pd,pd->p", away, away)
     # each sample's nearest pair: the first of its pairs at its least distance (every
-    # sample has pairs - its nearest centroids - so the runs' minima are indexed by sample)
+    # sample keeps the triangle its bound was read on, the 1e-6 mm a rounding's room - so
+    # the runs' minima are indexed by sample)
     least = np.minimum.reduceat(distance, np.flatnonzero(np.r_[True, sample[1:] != sample[:-1]]))
     hit = np.flatnonzero(distance == least[sample])
     first = hit[np.r_[True, sample[hit][1:] != sample[hit][:-1]]]
