@@ -1,8 +1,9 @@
 """Reading scans into millimetre point sets (paper section 2.1, data acquisition).
 
 Supported: STL (binary and ASCII), PLY (mesh or points only), OBJ, OFF, GLB/glTF
-(through trimesh), and plain XYZ / CSV point clouds (three numeric columns, optional
-header, comma / semicolon / whitespace separated).
+(through trimesh), and plain XYZ / CSV / TXT point clouds (x y z first in each row, in the
+dialects :mod:`app.geometry.scan.text_cloud` tells apart: separators, decimal commas,
+extra columns, headers, PTS point counts).
 
 Units: everything inside the service is millimetres.  The unit of a file is taken from
 the caller (``units=``) or detected from the largest bounding-box extent ``L``: a
@@ -16,7 +17,6 @@ from __future__ import annotations
 
 import io
 import os
-import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +25,7 @@ import trimesh
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.scan.gltf_count import MAX_MESH_INSTANCES, gltf_json, gltf_scene_size
 from app.geometry.scan.integrity import binary_stl_count, check_ply_integrity, check_stl_integrity
+from app.geometry.scan.text_cloud import read_text_cloud
 
 #: file extensions (lower case, no dot) the reader accepts
 SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt")
@@ -107,36 +108,6 @@ def _format_of(name: str | None, file_type: str | None) -> str:
             + ", ".join(SUPPORTED_FORMATS),
         )
     return fmt
-
-
-#: a row that starts with a number (header and comment rows do not); whole lines, so one
-#: C-level findall picks the data rows instead of a Python loop over the lines
-_NUMBER_ROW = re.compile(r"^[ \t]*(?:[-+0-9.]|nan|inf)[^\r\n]*", re.IGNORECASE | re.MULTILINE)
-
-
-def _read_text_cloud(data: bytes) -> np.ndarray:
-    """Parse an XYZ/CSV/TXT point cloud: the first three numeric columns of each row."""
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise FitFailure(FailureReason.UNREADABLE_FILE, "point cloud is not UTF-8 text") from exc
-    rows = _NUMBER_ROW.findall(text)
-    if not rows:
-        raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no numeric rows")
-    body = "\n".join(rows).replace(";", " ").replace(",", " ").replace("\t", " ")
-    try:
-        table = np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2)
-    except ValueError as exc:
-        raise FitFailure(
-            FailureReason.UNREADABLE_FILE,
-            "point cloud rows are not all numbers: each row must be x y z (spaces, commas, tabs or semicolons between)",
-        ) from exc
-    if table.shape[1] < 3:
-        raise FitFailure(
-            FailureReason.UNREADABLE_FILE,
-            f"point cloud rows have {table.shape[1]} columns; x, y, z are needed",
-        )
-    return table[:, :3]
 
 
 def merge_duplicate_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -294,7 +265,7 @@ def load_scan(
         if max_points is not None:
             _check_size("points (every instance of the scene counted)", size.points, max_points)
     if fmt in ("xyz", "csv", "txt"):
-        points, faces = _read_text_cloud(data), None
+        points, faces = read_text_cloud(data), None
     else:
         if fmt == "stl":
             check_stl_integrity(data)

@@ -1,0 +1,103 @@
+"""Point clouds as text (XYZ, CSV, TXT and Leica's PTS written as .txt or .xyz): the first
+three numbers of each row are x, y, z.
+
+Scanners and the software clinics export from write these in several dialects; each is
+told from the rows themselves, never guessed per row:
+
+- **separators**: spaces, tabs, commas or semicolons between the columns;
+- **decimal commas** (a German or French locale's export: ``12,5;130,25;7,5`` or
+  ``12,5 130,25 7,5``): the first rows hold no decimal point, a comma between two digits,
+  and (most of them) at least three columns once split on spaces, tabs and semicolons only - a comma
+  CSV's row (``12,130,7``) is one such column, so its commas stay separators.  Read
+  with its commas as separators, such a file gave six coordinates of a row's integer and
+  fraction parts - x = 12, y = 5, z = 130 - and a scan of nothing (never silently: the
+  rule is decided once, from the first rows, for the whole file);
+- **more than three columns** (intensity, colour, normals): the rest of a row is not read,
+  and rows may differ in how many they hold;
+- **header and comment rows** (``x,y,z``, ``# exported by ...``, ``//``): rows that do not
+  start with a number are skipped;
+- **point counts**: a row holding a single whole number is PTS's count of the points that
+  follow (a PTS file holds one per scan it joins) and is skipped.
+
+A row with one or two numbers that is not a count, or a column that is not a number, is
+refused with the row's number in the file's data rows.  Units are the caller's
+(app.geometry.scan.reader).  Returns (n, 3) float64.
+"""
+
+from __future__ import annotations
+
+import io
+import itertools
+import re
+
+import numpy as np
+
+from app.geometry.errors import FailureReason, FitFailure
+
+#: a row that does not start with a number (a header or comment): emptied, so the rows
+#: keep their line numbers; whole lines, one C-level substitution instead of a Python loop
+_OTHER_ROW = re.compile(r"^(?![ \t]*(?:[-+0-9.]|nan|inf)).*$", re.IGNORECASE | re.MULTILINE)
+#: a row holding something (the rows the dialect is read from)
+_DATA_ROW = re.compile(r"^[^\n]*\S[^\n]*$", re.MULTILINE)
+#: a PTS point count: a row of one whole number
+_COUNT_ROW = re.compile(r"^[ \t]*\+?[0-9]+[ \t]*$", re.MULTILINE)
+#: a row of fewer than three columns (separators already spaces)
+_SHORT_ROW = re.compile(r"^[ \t]*\S+(?:[ \t]+\S+)?[ \t]*$", re.MULTILINE)
+#: a comma between two digits: a decimal comma, or a separator without spaces
+_DIGIT_COMMA_DIGIT = re.compile(r"[0-9],[0-9]")
+#: the rows the dialect is read from
+DIALECT_ROWS = 100
+
+
+def decimal_comma(rows: list[str]) -> bool:
+    """Do ``rows`` (the file's first data rows) write their decimals with a comma? (No
+    decimal point in them, a comma between two digits, and most rows - the median - at
+    least three columns split on spaces, tabs and semicolons alone: module docstring; a
+    row short of a column is then refused as such, not read with its commas split.)"""
+    sample = "\n".join(rows)
+    if not rows or "." in sample or not _DIGIT_COMMA_DIGIT.search(sample):
+        return False
+    return float(np.median([len(re.split(r"[ \t;]+", row.strip())) for row in rows])) >= 3
+
+
+def _text(data: bytes) -> str:
+    """The file as text, one row per line: UTF-8 (a byte-order mark dropped), or - where a
+    header or comment holds a name in another code page - Latin-1, whose bytes all
+    decode; numbers are ASCII in both.  A file with NUL bytes is binary, not text."""
+    if b"\x00" in data[:65536]:
+        raise FitFailure(FailureReason.UNREADABLE_FILE,
+                         "the point cloud is not text (it holds binary bytes): export it as XYZ or CSV text, or "
+                         "upload the binary file with its own extension (.ply, .stl)")
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
+def read_text_cloud(data: bytes) -> np.ndarray:
+    """(n, 3) float64: x, y, z of each data row of a text point cloud (module docstring)."""
+    body = _OTHER_ROW.sub("", _text(data))  # the file's rows, headers and comments empty
+    first = [m.group() for m in itertools.islice(_DATA_ROW.finditer(body), DIALECT_ROWS)]
+    if not first:
+        raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no numeric rows")
+    comma_decimals = decimal_comma([row for row in first if not _COUNT_ROW.fullmatch(row)])
+    if comma_decimals:
+        body = body.replace(",", ".")
+    body = _COUNT_ROW.sub("", body.replace(";", " ").replace(",", " ").replace("\t", " "))
+    if not body.strip():
+        raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no rows of x, y, z: only point counts")
+    dialect = " (its decimals written with commas, as its first rows write them)" if comma_decimals else ""
+    try:
+        return np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2, usecols=(0, 1, 2))
+    except ValueError as exc:
+        short = _SHORT_ROW.search(body)  # (searched only here: it costs 3 times the reading)
+        if short is not None:
+            raise FitFailure(
+                FailureReason.UNREADABLE_FILE,
+                f"row {body.count(chr(10), 0, short.start()) + 1} of the point cloud has {len(short.group().split())} "
+                f"number(s); each row must start with x y z{dialect} (spaces, commas, tabs or semicolons between)"
+            ) from exc
+        raise FitFailure(FailureReason.UNREADABLE_FILE,
+                         f"the point cloud's rows are not all numbers: each row must start with x y z{dialect} "
+                         "(spaces, commas, tabs or semicolons between)") from exc
