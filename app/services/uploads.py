@@ -235,7 +235,7 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
         if not hint and part_type in ("", OCTET_STREAM):
             raise UnsupportedMediaType(
                 f"cannot tell the scan format of {filename or 'the file'!r}: name it *.stl, *.ply, *.obj, *.off, "
-                "*.glb, *.gltf, *.xyz or *.csv, give its media type, or add a 'format' field"
+                "*.glb, *.gltf, *.xyz, *.csv, *.txt, *.pts or *.asc, give its media type, or add a 'format' field"
             )
         file_format = format_for_media_type(part_type, hint)
         if writer.size == 0:

@@ -28,7 +28,10 @@ from app.geometry.scan.integrity import binary_stl_count, check_ply_integrity, c
 from app.geometry.scan.text_cloud import read_text_cloud
 
 #: file extensions (lower case, no dot) the reader accepts
-SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt")
+#: (pts: Leica's text cloud; asc: the ASCII cloud Geomagic and CloudCompare export)
+SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt", "pts", "asc")
+#: the formats read as text point clouds (app.geometry.scan.text_cloud)
+TEXT_CLOUD_FORMATS = ("xyz", "csv", "txt", "pts", "asc")
 
 #: millimetres per unit
 UNIT_SCALE_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
@@ -264,7 +267,7 @@ def load_scan(
             _check_size("triangles (every instance of the scene counted)", size.triangles, max_faces)
         if max_points is not None:
             _check_size("points (every instance of the scene counted)", size.points, max_points)
-    if fmt in ("xyz", "csv", "txt"):
+    if fmt in TEXT_CLOUD_FORMATS:
         points, faces = read_text_cloud(data), None
     else:
         if fmt == "stl":

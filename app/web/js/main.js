@@ -90,7 +90,7 @@ function signIn(message) {
 // ---------------------------------------------------------------- upload
 function uploadScreen() {
   let file = null;
-  const fileInput = h('input', { id: 'scan-file', type: 'file', 'aria-label': 'Scan file', accept: '.stl,.ply,.obj,.off,.glb,.gltf,.xyz,.csv,.txt' });
+  const fileInput = h('input', { id: 'scan-file', type: 'file', 'aria-label': 'Scan file', accept: '.stl,.ply,.obj,.off,.glb,.gltf,.xyz,.csv,.txt,.pts,.asc' });
   const chosen = h('p', { class: 'muted', text: 'No file chosen.' });
   const pick = (f) => { file = f; chosen.textContent = f ? `${f.name} (${(f.size / 1e6).toFixed(1)} MB)` : 'No file chosen.'; };
   fileInput.addEventListener('change', () => pick(fileInput.files[0]));

@@ -45,10 +45,14 @@ def test_extra_columns_pts_counts_and_a_latin1_header_are_read_past(skin_points)
     """Leica PTS: a count row before each scan joined, intensity and colour after x y z
     (some rows without colour); a header naming the clinic in Latin-1."""
     first, second = skin_points[:12000], skin_points[12000:]
-    rows = lambda part: _rows(part, "{} {} {}", extra=lambda i: " -1204 200 180 90" if i % 3 else " -1204")
+
+    def rows(part):
+        return _rows(part, "{} {} {}", extra=lambda i: " -1204 200 180 90" if i % 3 else " -1204")
+
     text = "\n".join([str(len(first)), *rows(first), str(len(second)), *rows(second)])
     data = "# Sanitätshaus Köln, Scan 3\n".encode("latin-1") + text.encode()
-    assert np.array_equal(load_scan(data, file_type="txt").points_mm, skin_points)
+    for fmt in ("txt", "pts", "xyz"):  # Leica's own extension, and the usual ones
+        assert np.array_equal(load_scan(data, file_type=fmt).points_mm, skin_points)
 
 
 def test_decimal_commas_are_told_from_comma_separators():
