@@ -5,13 +5,16 @@ Scanners and the software clinics export from write these in several dialects; e
 told from the rows themselves, never guessed per row:
 
 - **separators**: spaces, tabs, commas or semicolons between the columns;
-- **decimal commas** (a German or French locale's export: ``12,5;130,25;7,5`` or
-  ``12,5 130,25 7,5``): the first rows hold no decimal point, a comma between two digits,
-  and (most of them) at least three columns once split on spaces, tabs and semicolons only - a comma
-  CSV's row (``12,130,7``) is one such column, so its commas stay separators.  Read
-  with its commas as separators, such a file gave six coordinates of a row's integer and
-  fraction parts - x = 12, y = 5, z = 130 - and a scan of nothing (never silently: the
-  rule is decided once, from the first rows, for the whole file);
+- **decimal commas** (a German or French locale's export: ``12,5;130,25;7,5``,
+  ``12,5 130,25 7,5``, with thousands ``1.234,5``): the columns are separated without
+  commas - most of the first rows (the median) hold three or more split on spaces, tabs
+  and semicolons alone (a comma followed by a space is a separator in every dialect) -
+  and a comma stands between two digits somewhere in the file.  A comma CSV's row
+  (``12,130,7``) is one such column, so its commas stay separators.  In a file of decimal
+  commas a dot is a thousands separator (three digits follow it); any other dot makes
+  the file ambiguous, and it is refused.  Read with its commas as separators, such a
+  file gave six coordinates of a row's integer and fraction parts - x = 12, y = 5,
+  z = 130 - and a scan of nothing.  The rule is decided once, for the whole file;
 - **more than three columns** (intensity, colour, normals): the rest of a row is not read,
   and rows may differ in how many they hold;
 - **header and comment rows** (``x,y,z``, ``# exported by ...``, ``//``): rows that do not
@@ -45,19 +48,24 @@ _COUNT_ROW = re.compile(r"^[ \t]*\+?[0-9]+[ \t]*$", re.MULTILINE)
 _SHORT_ROW = re.compile(r"^[ \t]*\S+(?:[ \t]+\S+)?[ \t]*$", re.MULTILINE)
 #: a comma between two digits: a decimal comma, or a separator without spaces
 _DIGIT_COMMA_DIGIT = re.compile(r"[0-9],[0-9]")
+#: the separators a file of decimal commas has between its columns
+_COLUMNS = re.compile(r"[ \t;]+")
+#: a comma followed by a space (or a row's end): a separator in every dialect
+_COMMA_SPACE = re.compile(r",(?=[ \t]|$)", re.MULTILINE)
+#: a thousands separator of a file of decimal commas: a dot between a digit and three digits
+_THOUSANDS_DOT = re.compile(r"(?<=[0-9])\.(?=[0-9]{3}(?![0-9]))")
 #: the rows the dialect is read from
 DIALECT_ROWS = 100
 
 
-def decimal_comma(rows: list[str]) -> bool:
-    """Do ``rows`` (the file's first data rows) write their decimals with a comma? (No
-    decimal point in them, a comma between two digits, and most rows - the median - at
-    least three columns split on spaces, tabs and semicolons alone: module docstring; a
-    row short of a column is then refused as such, not read with its commas split.)"""
-    sample = "\n".join(rows)
-    if not rows or "." in sample or not _DIGIT_COMMA_DIGIT.search(sample):
+def decimal_comma(rows: list[str], body: str) -> bool:
+    """Does a file write its decimals with commas? ``rows``: its first data rows, ``body``:
+    the whole file, each with its comma-and-space separators already made spaces (module
+    docstring: the columns are separated without commas, and a comma stands between two
+    digits somewhere)."""
+    if not rows or float(np.median([len(_COLUMNS.split(row.strip())) for row in rows])) < 3:
         return False
-    return float(np.median([len(re.split(r"[ \t;]+", row.strip())) for row in rows])) >= 3
+    return "," in body and _DIGIT_COMMA_DIGIT.search(body) is not None
 
 
 def _text(data: bytes) -> str:
@@ -77,12 +85,21 @@ def _text(data: bytes) -> str:
 
 def read_text_cloud(data: bytes) -> np.ndarray:
     """(n, 3) float64: x, y, z of each data row of a text point cloud (module docstring)."""
-    body = _OTHER_ROW.sub("", _text(data))  # the file's rows, headers and comments empty
+    body = _OTHER_ROW.sub("", _text(data))  # headers and comments emptied: the rows keep their numbers
+    if "," in body:  # (a C-level search: most clouds hold no comma at all)
+        body = _COMMA_SPACE.sub(" ", body)
     first = [m.group() for m in itertools.islice(_DATA_ROW.finditer(body), DIALECT_ROWS)]
     if not first:
         raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no numeric rows")
-    comma_decimals = decimal_comma([row for row in first if not _COUNT_ROW.fullmatch(row)])
+    comma_decimals = decimal_comma([row for row in first if not _COUNT_ROW.fullmatch(row)], body)
     if comma_decimals:
+        body = _THOUSANDS_DOT.sub("", body)
+        if "." in body:
+            row = body.count("\n", 0, body.index(".")) + 1
+            raise FitFailure(
+                FailureReason.UNREADABLE_FILE,
+                f"the point cloud writes its decimals with commas, but row {row} has a decimal point too: export it "
+                "with one decimal mark (a point, or a comma with semicolons or tabs between the columns)")
         body = body.replace(",", ".")
     body = _COUNT_ROW.sub("", body.replace(";", " ").replace(",", " ").replace("\t", " "))
     if not body.strip():

@@ -56,10 +56,18 @@ def test_extra_columns_pts_counts_and_a_latin1_header_are_read_past(skin_points)
 
 
 def test_decimal_commas_are_told_from_comma_separators():
-    assert decimal_comma(["12,5;130,25;7,5"]) and decimal_comma(["12,5 130,25 7,5"])
-    assert not decimal_comma(["12,130,7"])  # a comma CSV of whole millimetres
-    assert not decimal_comma(["12.5,130.25,7.5"]) and not decimal_comma(["12, 130, 7"])
+    def commas_decimal(row):
+        return decimal_comma([row], row)
+
+    assert commas_decimal("12,5;130,25;7,5") and commas_decimal("12,5 130,25 7,5")
+    assert not commas_decimal("12,130,7")  # a comma CSV of whole millimetres
+    assert not commas_decimal("12.5,130.25,7.5") and not commas_decimal("12.5 130.25 7.5")
     assert np.array_equal(read_text_cloud(b"12,130,7\n1,2,3\n"), [[12, 130, 7], [1, 2, 3]])
+    assert np.array_equal(read_text_cloud(b"1.5, 2.5, 3.5\n1, 2, 3\n"), [[1.5, 2.5, 3.5], [1, 2, 3]])
+    # whole millimetres first, decimal commas further down: decided for the whole file
+    assert np.array_equal(read_text_cloud(b"12;130;7\n" * 150 + b"12,5;130,25;7,5\n")[-1], [12.5, 130.25, 7.5])
+    # thousands separators of a German spreadsheet's export
+    assert np.array_equal(read_text_cloud(b"1.234,5;567,25;1.801\n"), [[1234.5, 567.25, 1801.0]])
 
 
 @pytest.mark.parametrize("payload,words", [
@@ -67,6 +75,7 @@ def test_decimal_commas_are_told_from_comma_separators():
     (b"x;y;z\n1,5;2,5;3,5\n1,5;2,5;3,5\n4,5;5,5\n", "row 4 of the point cloud has 2 number(s); each row must start with x y z "
                                          "(its decimals written with commas"),
     (b"1 2 3\n4 5 six\n", "rows are not all numbers"),
+    (b"12,5;130,25;7,5\n12.5;130,25;7,5\n", "writes its decimals with commas, but row 2 has a decimal point too"),
     (b"\x00\x00\x80\x3f" * 300, "not text"),
 ])
 def test_a_file_no_dialect_describes_is_refused_with_the_row_at_fault(payload, words):
