@@ -85,8 +85,12 @@ def right(r: dict) -> bool:
         # ankle_to_thigh-04, cropped 0.13 mm below B): nothing in the scan tells the
         # waist there from a leg still narrowing below it, so no_ankle ("re-scan from
         # below the ankle bones") is right as well as a fit
+        # - measured at the section's lowest edge: the cut's tilt lifts it across the
+        # ankle by cut_rise_at_ankle_mm (robustness 220 29, ankle_to_thigh_cloud-04: cut
+        # 4.4 mm below B on the axis, 0.8 mm below it at the section's lowest edge)
         below_b_mm = -r["notes"].get("bottom_above_B_mm", np.nan)  # NaN: not a crop under B
-        return r["outcome"] == "no_ankle" and below_b_mm < TAPE_HALF_WIDTH_MM
+        lowest_edge_below_b_mm = below_b_mm - r["notes"].get("cut_rise_at_ankle_mm", 0.0)
+        return r["outcome"] == "no_ankle" and lowest_edge_below_b_mm < TAPE_HALF_WIDTH_MM
     return _calf_right(r) and abs(r["girth_error_mm"]["D"]) <= 10
 
 

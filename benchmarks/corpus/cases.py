@@ -179,7 +179,12 @@ def build_case(spec: CaseSpec) -> Case:
     if kind in ("ankle_to_thigh", "ankle_to_thigh_cloud", "cut_above_ankle"):
         start = -rng.uniform(0.0, 10.0) if kind != "cut_above_ankle" else rng.uniform(40.0, 80.0)
         notes["bottom_above_B_mm"] = float(start)
-        mesh = degrade.crop(mesh, b + start * axis, degrade.tilted(axis, 8.0, rng))
+        normal = degrade.tilted(axis, 8.0, rng)
+        # how far the tilted cut rises above its height on the axis across the ankle's
+        # section (its radius from B's girth): B's band lies whole in the scan only below that
+        tilt = float(np.arccos(np.clip(normal @ axis, -1.0, 1.0)))
+        notes["cut_rise_at_ankle_mm"] = float(truth.girths_mm["B"] / (2 * np.pi) * np.tan(tilt))
+        mesh = degrade.crop(mesh, b + start * axis, normal)
         foot = False
     if kind == "midfoot_midthigh":
         up = np.array([0.0, 1.0, 0.0])
