@@ -206,6 +206,25 @@ def _read_with_trimesh(data: bytes, fmt: str) -> tuple[np.ndarray, np.ndarray | 
     )
 
 
+#: glTF extensions that compress a mesh's buffers in a way the reader cannot undo: a
+#: reader that ignores them reads the uncompressed fallback, which a compressed file may
+#: leave empty (zeros), so a file that requires one is refused by name.  (Draco,
+#: KHR_draco_mesh_compression, is read: trimesh decodes it with DracoPy.)
+UNREADABLE_GLTF_EXTENSIONS = ("EXT_meshopt_compression", "KHR_meshopt_compression")
+
+
+def _check_gltf_extensions(document: dict, fmt: str) -> None:
+    """FitFailure (unsupported_format) when the glTF JSON ``document`` requires an
+    extension the reader cannot read (:data:`UNREADABLE_GLTF_EXTENSIONS`), by name."""
+    required = document.get("extensionsRequired", [])
+    names = [name for name in required if name in UNREADABLE_GLTF_EXTENSIONS] if isinstance(required, list) else []
+    if names:
+        raise FitFailure(
+            FailureReason.UNSUPPORTED_FORMAT,
+            f"the {fmt.upper()} is compressed with {', '.join(names)}, which this service cannot read: export it "
+            "uncompressed or with Draco compression (KHR_draco_mesh_compression), or as PLY or STL")
+
+
 def load_scan(
     source: str | os.PathLike | bytes,
     *,
@@ -255,10 +274,13 @@ def load_scan(
     if max_faces is not None and announced is not None:
         # a binary STL says how many triangles it holds before any is read
         _check_size("triangles", announced, max_faces)
-    if fmt in ("glb", "gltf") and (max_points is not None or max_faces is not None):
+    document = gltf_json(data, fmt) if fmt in ("glb", "gltf") else None
+    if document is not None:
+        _check_gltf_extensions(document, fmt)
+    if document is not None and (max_points is not None or max_faces is not None):
         # a scene instancing one mesh N times is counted from its JSON before trimesh
         # expands it (app.geometry.scan.gltf_count)
-        size = gltf_scene_size(gltf_json(data, fmt))
+        size = gltf_scene_size(document)
         if size.max_instances > MAX_MESH_INSTANCES:
             raise FitFailure(FailureReason.SCAN_TOO_LARGE, f"the file's scene shows one mesh {size.max_instances} times "
                              f"({size.triangles} triangles once expanded); a scan holds each of its meshes once "
