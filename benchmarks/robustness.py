@@ -90,7 +90,15 @@ def right(r: dict) -> bool:
         # 4.4 mm below B on the axis, 0.8 mm below it at the section's lowest edge)
         below_b_mm = -r["notes"].get("bottom_above_B_mm", np.nan)  # NaN: not a crop under B
         lowest_edge_below_b_mm = below_b_mm - r["notes"].get("cut_rise_at_ankle_mm", 0.0)
-        return r["outcome"] == "no_ankle" and lowest_edge_below_b_mm < TAPE_HALF_WIDTH_MM
+        if r["outcome"] == "no_ankle":
+            return lowest_edge_below_b_mm < TAPE_HALF_WIDTH_MM
+        # the same at the top: a knee-high crop (15-45 mm above D on the axis, its cut
+        # tilted) whose section edge lies below where the leg's girth has risen above D's
+        # by a tape's resolution (the truth's knee_rise_mm) shows no knee waist a tape
+        # could tell from a leg still narrowing: no_knee ("re-scan over the kneecap") is
+        # right as well as a fit with D at the scan's edge
+        lowest_edge_above_d_mm = r["notes"].get("top_above_D_mm", np.nan) - r["notes"].get("cut_drop_at_knee_mm", 0.0)
+        return r["outcome"] == "no_knee" and lowest_edge_above_d_mm < r["notes"].get("knee_rise_mm", np.nan)
     return _calf_right(r) and abs(r["girth_error_mm"]["D"]) <= 10
 
 

@@ -138,6 +138,22 @@ def _write(mesh: trimesh.Trimesh | None, cloud: np.ndarray | None, rng: np.rando
     return (data.encode() if isinstance(data, str) else data), fmt
 
 
+def _cut_reach(girth_mm: float, axis: np.ndarray, normal: np.ndarray) -> float:
+    """How far a cut of ``normal`` (3,), tilted off the leg's ``axis`` (3,), lies above or
+    below its height on the axis at the edge of a section of ``girth_mm`` (mm: its
+    radius, girth / 2 pi, times the tilt's tangent)."""
+    tilt = float(np.arccos(np.clip(normal @ axis, -1.0, 1.0)))
+    return float(girth_mm / (2 * np.pi) * np.tan(tilt))
+
+
+def _knee_cut_notes(truth: LegTruth, axis: np.ndarray, normal: np.ndarray) -> dict:
+    """A cut above the knee waist: how far it dips below its height on the axis across
+    D's section, and how far above D the leg's girth rises by a tape's resolution
+    (benchmarks/robustness.py: a scan that keeps less than that above D may be refused
+    no_knee)."""
+    return {"cut_drop_at_knee_mm": _cut_reach(truth.girths_mm["D"], axis, normal), "knee_rise_mm": truth.knee_rise_mm}
+
+
 def build_case(spec: CaseSpec) -> Case:
     """Generate the scan of ``spec`` (deterministic in ``spec.seed``)."""
     rng = np.random.default_rng(spec.seed)
@@ -175,15 +191,16 @@ def build_case(spec: CaseSpec) -> Case:
     if kind in ("knee_high", "knee_high_cloud", "cut_below_knee"):
         reach = rng.uniform(15.0, 45.0) if kind != "cut_below_knee" else -rng.uniform(30.0, 60.0)
         notes["top_above_D_mm"] = float(reach)
-        mesh = degrade.crop(mesh, d + reach * axis, -degrade.tilted(axis, 8.0, rng))
+        normal = degrade.tilted(axis, 8.0, rng)
+        notes.update(_knee_cut_notes(truth, axis, normal))
+        mesh = degrade.crop(mesh, d + reach * axis, -normal)
     if kind in ("ankle_to_thigh", "ankle_to_thigh_cloud", "cut_above_ankle"):
         start = -rng.uniform(0.0, 10.0) if kind != "cut_above_ankle" else rng.uniform(40.0, 80.0)
         notes["bottom_above_B_mm"] = float(start)
         normal = degrade.tilted(axis, 8.0, rng)
         # how far the tilted cut rises above its height on the axis across the ankle's
         # section (its radius from B's girth): B's band lies whole in the scan only below that
-        tilt = float(np.arccos(np.clip(normal @ axis, -1.0, 1.0)))
-        notes["cut_rise_at_ankle_mm"] = float(truth.girths_mm["B"] / (2 * np.pi) * np.tan(tilt))
+        notes["cut_rise_at_ankle_mm"] = _cut_reach(truth.girths_mm["B"], axis, normal)
         mesh = degrade.crop(mesh, b + start * axis, normal)
         foot = False
     if kind == "midfoot_midthigh":
@@ -218,7 +235,9 @@ def build_case(spec: CaseSpec) -> Case:
     if kind == "sparse_leg_vertices":  # foot to 15-45 mm above D, like a knee-high scan
         reach = rng.uniform(15.0, 45.0)
         notes["top_above_D_mm"] = float(reach)
-        mesh = degrade.crop(mesh, d + reach * axis, -degrade.tilted(axis, 8.0, rng))
+        normal = degrade.tilted(axis, 8.0, rng)
+        notes.update(_knee_cut_notes(truth, axis, normal))
+        mesh = degrade.crop(mesh, d + reach * axis, -normal)
     if kind in ("vertex_cloud", "body_vertices", "sparse_leg_vertices"):
         cloud = np.asarray(mesh.vertices, dtype=np.float64)
         if kind == "vertex_cloud":

@@ -37,6 +37,8 @@ MERGE_RISE = 0.10
 MERGE_RUN_MM = 5.0
 #: the calf's crown: girths within this fraction of the maximum (tape resolution)
 CROWN_FRACTION = 0.005
+#: the least change of girth a tape tells: it reads to 1 mm, +-1 mm at each end
+TAPE_RESOLUTION_MM = 2.0
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,9 @@ class LegTruth:
     axis : (3,) unit shank axis, ankle -> knee.
     knee_hidden : a bent knee's thigh reaches into the planes before the girth has
         its minimum above the calf: the knee waist cannot be measured on this leg.
+    knee_rise_mm : how far above D the (smoothed) girth has risen by a tape's
+        resolution (TAPE_RESOLUTION_MM): a scan that stops below that shows no knee
+        waist a tape could tell from a leg still narrowing (NaN: no such rise measured).
     """
 
     heights_mm: dict
@@ -56,6 +61,7 @@ class LegTruth:
     points_mm: dict
     axis: np.ndarray
     knee_hidden: bool = False
+    knee_rise_mm: float = float("nan")
 
     def as_dict(self) -> dict:
         return {"heights_mm": self.heights_mm, "girths_mm": self.girths_mm,
@@ -147,12 +153,14 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
         girth_bd, centre_bd = girth[[ib, id_]], centre[[ib, id_]]
     girths = {k: float(girth[i]) for k, i in index.items()} | {"B": float(girth_bd[0]), "D": float(girth_bd[1])}
     points = {k: centre[i] for k, i in index.items()} | {"B": centre_bd[0], "D": centre_bd[1]}
+    risen_d = np.flatnonzero((heights > d_mm) & (g >= girths["D"] + TAPE_RESOLUTION_MM))
     return LegTruth(
         heights_mm={k: at[k] - b_mm for k in index},
         girths_mm=girths,
         points_mm=points,
         axis=axis,
         knee_hidden=knee_hidden,
+        knee_rise_mm=float(heights[risen_d[0]] - d_mm) if risen_d.size else float("nan"),
     )
 
 
