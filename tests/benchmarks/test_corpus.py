@@ -69,6 +69,21 @@ def test_two_legs_in_a_coarse_mesh_are_cut_apart_on_its_triangles():
     assert result["side_found"] == case.true_side
 
 
+@pytest.mark.parametrize("case_id", ["sparse_leg_vertices-02", "sparse_leg_vertices-04"])
+def test_a_sparse_knee_high_scan_keeps_the_sections_below_its_cut_that_it_sees_all_round(case_id):
+    """5.5k vertices of a lower leg cut 13-20 mm above D at the cut's lowest edge, where
+    the girth has risen by a tape's 2 mm 10-12 mm above D: the sparse cloud sees 65-89%
+    of every section's bins, so on coverage alone the last 25 mm below the cut were all
+    taken for the cut's partial sections, the rise above D with them, and the scan was
+    refused no_knee.  A section is partial where it misses a whole arc, as a cut leaves."""
+    case = build_case({s.case_id: s for s in corpus_specs(220, 23)}[case_id])
+    assert case.notes["top_above_D_mm"] - case.notes["cut_drop_at_knee_mm"] > case.notes["knee_rise_mm"]
+    result = run_case(case)
+    assert result["outcome"] == "fit", result.get("detail")
+    assert max(abs(e) for e in result["girth_error_mm"].values()) <= 2.0, result["girth_error_mm"]
+    assert abs(result["height_error_mm"]["D"]) <= 5.0, result["height_error_mm"]
+
+
 @pytest.mark.parametrize("seed,case_id", [(17, "sparse_leg_vertices-00"), (19, "sparse_leg_vertices-01")])
 def test_a_sparse_lower_leg_whose_slabs_leave_c_open_is_fitted_on_its_graph(seed, case_id):
     """5.5k vertices of a lower leg, 2.5 points per mm of the calf: every 20 mm slab

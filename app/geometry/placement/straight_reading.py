@@ -96,9 +96,19 @@ def profile_along(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[fl
     # a crop plane oblique to the slicing planes leaves partial sections at the scan's
     # ends, whose girth falls towards zero: they are not measurements of the leg
     # (only within END_CUT_MM of the ends: an oblique cut spans at most that much of the
-    # axis, while a foot's sections can be incomplete over a longer run and are real)
-    partial = (sections.coverage < MIN_END_COVERAGE) & (
-        (heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
+    # axis, while a foot's sections can be incomplete over a longer run and are real).
+    # The cut takes one arc: a section seen over less than MIN_END_COVERAGE of its angle
+    # is partial when what it misses includes an arc that long.  A sparse cloud's
+    # sections miss bins scattered all round, its whole leg over (5,500 vertices of a
+    # lower leg: 65-89% of the bins seen): read on coverage alone, the last END_CUT_MM
+    # below its cut were all dropped, with the rise above the knee waist they held, and
+    # the scan was refused no_knee (benchmarks/robustness.py 220 23, sparse_leg_vertices-02
+    # and -04, cut 20 and 13 mm above D at the section's edge, where the leg's girth has
+    # risen by a tape's 2 mm 10 and 12 mm above D)
+    seen_short = sections.coverage < MIN_END_COVERAGE
+    if sections.largest_gap_deg is not None:
+        seen_short &= sections.largest_gap_deg > (1.0 - MIN_END_COVERAGE) * 360.0
+    partial = seen_short & ((heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
     if cut_end:
         inwards = np.arange(len(heights))[::-cut_end]  # from the cut end into the leg
         whole = sections.coverage[inwards] >= MIN_END_COVERAGE
