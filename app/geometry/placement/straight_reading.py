@@ -111,7 +111,7 @@ def profile_along(local: np.ndarray, faces: np.ndarray | None, z_range: tuple[fl
     partial = seen_short & ((heights - heights[0] <= END_CUT_MM) | (heights[-1] - heights <= END_CUT_MM))
     if cut_end:
         inwards = np.arange(len(heights))[::-cut_end]  # from the cut end into the leg
-        whole = sections.coverage[inwards] >= MIN_END_COVERAGE
+        whole = ~seen_short[inwards]
         partial[inwards[: int(np.argmax(whole)) if whole.any() else len(inwards)]] = True
         # whole sections can still reach the thigh on the shank's side of the cut (a knee
         # bent past ~60 degrees): from the middle of the leg towards the cut, the shank's
