@@ -38,6 +38,22 @@ from app.geometry.sections.cloud_edges import STREAK_NEIGHBOURS, on_a_streak
 #: spacings (module docstring)
 STRAY_RADIUS_SPACINGS = 4.0
 STRAY_NEIGHBOURS = 4
+#: a scanner's streak is a line of points, the skin a surface: a streak's points near the
+#: skin passed as skin where the streak's own scatter or a stray beside it spread their
+#: 8 nearest off one line past the streak share (a streak running 30 mm on along the floor
+#: from the toes among a floor's stray points held the foot's end: foot length 30 mm long
+#: and cA 5 mm short, unwarned; benchmarks/chart_accuracy.py 8 19, leg 3, cloud_outliers).
+#: A point is on a line too when LINE_SHARE of its LINE_NEIGHBOURS nearest lie within one
+#: spacing of a line through it (:func:`on_a_line`): a streak's own points do, strays
+#: beside it do not (a share of them, not a spread, so a few strays cannot hide the line).
+#: The skin's 24 nearest cover a disc about 6 spacings in radius (Poisson: ln 2 (r/m)^2 =
+#: 24), of which a strip 2 spacings wide through its middle holds about 4 / (pi 5.9) = 22%:
+#: on a tube sampled at random (tests/geometry/anatomy/test_skin_points.py) the best of the
+#: lines tried held 33% of them in the median, 54% at p99, 0.6 or more on 0.07% of its
+#: points; the points of a streak with 12 strays beside it, 67-100% (median 81%)
+LINE_NEIGHBOURS = 24
+LINE_SHARE = 0.6
+LINE_CANDIDATES = 8
 #: the skin's spacing round the points tested is the median over this many of them
 SPACING_SAMPLE = 2000
 #: the lowest points are tested this many at a time, lowest first
@@ -61,6 +77,23 @@ STRAY_REACH_RATIO = 4.0
 STRAY_ISOLATION = 8.0
 
 
+def on_a_line(points: np.ndarray, index: np.ndarray, nearest: np.ndarray, spacing_mm: float) -> np.ndarray:
+    """(k,) bool: the points ``index`` (k,) of ``points`` (n, 3) mm through which a line
+    holds LINE_SHARE of their ``nearest`` (k, m) within ``spacing_mm`` of it (LINE_SHARE's
+    docstring: a streak's, not the skin's).  The lines tried run through the point and
+    each of its LINE_CANDIDATES nearest after the first LINE_CANDIDATES (as RANSAC tries
+    lines through pairs: strays beside a streak tilt a fitted axis off it, a line through
+    two of its points is the streak's; through a point a few spacings along it, which its
+    scatter turns by a degree, where the nearest, closer than the scatter, turn it by tens)."""
+    centre = points[index][:, None, :]  # (k, 1, 3)
+    around = points[nearest] - centre  # (k, m, 3)
+    direction = around[:, LINE_CANDIDATES:2 * LINE_CANDIDATES]  # (k, c, 3): towards each candidate
+    direction = direction / np.maximum(np.linalg.norm(direction, axis=2, keepdims=True), 1e-12)
+    along = np.einsum("kmi,kci->kcm", around, direction)  # (k, c, m)
+    off_sq = np.einsum("kmi,kmi->km", around, around)[:, None, :] - along**2
+    return ((off_sq <= spacing_mm**2).mean(axis=2) >= LINE_SHARE).any(axis=1)
+
+
 class Skin:
     """Which of a scan's points are skin (module docstring), asked of the few points that
     decide a measure: every point of a mesh; a cloud's with STRAY_NEIGHBOURS within
@@ -82,11 +115,13 @@ class Skin:
             return np.ones(len(index), dtype=bool)
         near = index if near is None else near
         sample = self.points[near[:: max(len(near) // SPACING_SAMPLE, 1)]]
-        radius = STRAY_RADIUS_SPACINGS * float(np.median(self.tree.query(sample, k=2)[0][:, 1]))
+        spacing = float(np.median(self.tree.query(sample, k=2)[0][:, 1]))
+        radius = STRAY_RADIUS_SPACINGS * spacing
         dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
         # a streak: its nearest points spread along one line, where a surface's spread in two
-        _, nearest = self.tree.query(self.points[index], k=STREAK_NEIGHBOURS + 1)
-        return dense & ~on_a_streak(self.points, nearest)
+        _, nearest = self.tree.query(self.points[index], k=max(STREAK_NEIGHBOURS, LINE_NEIGHBOURS) + 1)
+        return dense & ~on_a_streak(self.points, nearest) & ~on_a_line(self.points, index, nearest[:, 1:LINE_NEIGHBOURS + 1],
+                                                                       spacing)
 
     def of_each(self, index: np.ndarray) -> np.ndarray:
         """(k,) bool for the points ``index`` (k,) spread over a scan whose spacing changes
