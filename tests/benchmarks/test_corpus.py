@@ -16,7 +16,8 @@ from app.geometry.garment.measuring_points import chart_of_record
 from app.geometry.placement.place import TOUCHING_LEGS_WARNING
 from app.geometry.scan.reader import load_scan
 from app.records.codec import record_from_fit
-from benchmarks.corpus.cases import CaseSpec, build_case, corpus_specs
+from benchmarks.chart_accuracy import RESCAN_KINDS, chart_points
+from benchmarks.corpus.cases import CaseSpec, build_case, corpus_specs, leg_rescans
 from benchmarks.corpus.evaluate import run_case
 from benchmarks.sole import NO_FLOOR, sole_row
 
@@ -213,3 +214,19 @@ def test_the_floor_of_a_leg_scanned_with_strays_cut_through_the_foot_and_pointed
         assert rows[kind]["lB"] is None and why in rows[kind]["reason"]
         for point in ("lB", "lC", "lD", "foot_length", "cA", "cY"):
             assert chart[kind][point].value_mm is None and why in chart[kind][point].reason, (kind, point)
+
+
+def test_a_streak_off_the_toes_among_a_floors_strays_is_not_the_foots_end():
+    """chart_accuracy 8 19, leg 3, cloud_outliers: a scanner's streak runs 30 mm on from
+    the toes along the floor among the floor's stray points, which spread its points'
+    nearest off one line; it passed as skin and held the foot's end - the foot read 30 mm
+    long and cA 5 mm short, unwarned (app.geometry.anatomy.skin_points.on_a_line).  The
+    re-scan reads the clean mesh's foot."""
+    specs = {(leg, spec.kind): spec for leg, spec in leg_rescans(8, 19, ("mesh_clean",) + RESCAN_KINDS) if leg == 3}
+    readings = {}
+    for kind in ("mesh_clean", "cloud_outliers"):
+        case = build_case(specs[3, kind])
+        readings[kind] = chart_points(load_scan(case.data, file_type=case.file_type, units=case.units), case.side)
+    clean, streaked = readings["mesh_clean"], readings["cloud_outliers"]
+    assert streaked["foot_length"] == pytest.approx(clean["foot_length"], abs=2.0)
+    assert streaked["cA"] == pytest.approx(clean["cA"], abs=1.5)
