@@ -22,9 +22,10 @@ told from the rows themselves, never guessed per row:
 - **point counts**: a row holding a single whole number is PTS's count of the points that
   follow (a PTS file holds one per scan it joins) and is skipped.
 
-A row with one or two numbers that is not a count, or a column that is not a number, is
-refused with the row's number in the file's data rows.  Units are the caller's
-(app.geometry.scan.reader).  Returns (n, 3) float64.
+A row with one or two numbers that is not a count is refused with its line number in the
+file (not its content: a scan is health data), a column that is not a number as rows that
+are not all numbers.  Units are the caller's (app.geometry.scan.reader).  Returns (n, 3)
+float64.
 """
 
 from __future__ import annotations
@@ -104,7 +105,7 @@ def read_text_cloud(data: bytes) -> np.ndarray:
     body = _COUNT_ROW.sub("", body.replace(";", " ").replace(",", " ").replace("\t", " "))
     if not body.strip():
         raise FitFailure(FailureReason.EMPTY_SCAN, "the point cloud has no rows of x, y, z: only point counts")
-    dialect = " (its decimals written with commas, as its first rows write them)" if comma_decimals else ""
+    dialect = " (its decimals written with commas, as the file writes them)" if comma_decimals else ""
     try:
         return np.loadtxt(io.StringIO(body), dtype=np.float64, ndmin=2, usecols=(0, 1, 2))
     except ValueError as exc:
