@@ -119,9 +119,11 @@ class Skin:
         radius = STRAY_RADIUS_SPACINGS * spacing
         dense = self.tree.query_ball_point(self.points[index], radius, return_length=True) - 1 >= STRAY_NEIGHBOURS
         # a streak: its nearest points spread along one line, where a surface's spread in two
-        _, nearest = self.tree.query(self.points[index], k=max(STREAK_NEIGHBOURS, LINE_NEIGHBOURS) + 1)
-        return dense & ~on_a_streak(self.points, nearest) & ~on_a_line(self.points, index, nearest[:, 1:LINE_NEIGHBOURS + 1],
-                                                                       spacing)
+        _, nearest = self.tree.query(self.points[index], k=min(max(STREAK_NEIGHBOURS, LINE_NEIGHBOURS) + 1, len(self.points)))
+        streak = on_a_streak(self.points, nearest)
+        if nearest.shape[1] > LINE_NEIGHBOURS:  # (a cloud of a few dozen points has no lines to tell)
+            streak |= on_a_line(self.points, index, nearest[:, 1:LINE_NEIGHBOURS + 1], spacing)
+        return dense & ~streak
 
     def of_each(self, index: np.ndarray) -> np.ndarray:
         """(k,) bool for the points ``index`` (k,) spread over a scan whose spacing changes
