@@ -234,8 +234,8 @@ async def _receive_multipart(boundary: bytes | None, stream, store: ScanStore, l
         hint = fields.get("format") or (extension if extension in SUPPORTED_FORMATS else None)
         if not hint and part_type in ("", OCTET_STREAM):
             raise UnsupportedMediaType(
-                f"cannot tell the scan format of {filename or 'the file'!r}: name it *.stl, *.ply, *.obj, *.off, "
-                "*.glb, *.gltf, *.xyz, *.csv, *.txt, *.pts or *.asc, give its media type, or add a 'format' field"
+                f"cannot tell the scan format of {filename or 'the file'!r}: name it "
+                f"{', '.join(f'*.{name}' for name in SUPPORTED_FORMATS)}, give its media type, or add a 'format' field"
             )
         file_format = format_for_media_type(part_type, hint)
         if writer.size == 0:

@@ -221,14 +221,15 @@ def foot_measures(points: np.ndarray, faces: np.ndarray | None, sole_mm: float |
     # aside; a cloud's stray points are no skin, app.geometry.anatomy.skin_points.Skin)
     skin = Skin(below_b, below_faces is not None)
     every = np.arange(len(below_b))
-    heel_end, toe_end = skin.first(every, along, skip=2), skin.first(every, -along, skip=2)
-    if heel_end is None or toe_end is None:
+    heel_skin, toe_skin = skin.leading(every, along, 3), skin.leading(every, -along, 3)
+    if len(heel_skin) < 3 or len(toe_skin) < 3:
         return _not_measured("the scan has too few points near the sole to find the foot")
+    heel_end, toe_end = int(heel_skin[2]), int(toe_skin[2])
     heel_t, toe_t = float(along[heel_end]), float(along[toe_end])
     length = float(toe_t - heel_t)
     reaches = (_end_reach(below_b, skin, heel_end), _end_reach(below_b, skin, toe_end))  # heel, toes
-    length_short = (_end_shortfall(skin, along, heel_end, reaches[0], HEEL_RADIUS_MM)
-                    + _end_shortfall(skin, -along, toe_end, reaches[1], TOE_TIP_RADIUS_MM))
+    length_short = (_end_shortfall(along[heel_end] - along[heel_skin[0]], reaches[0], HEEL_RADIUS_MM)
+                    + _end_shortfall(along[toe_skin[0]] - along[toe_end], reaches[1], TOE_TIP_RADIUS_MM))
     if length < MIN_FOOT_MM:
         return _not_measured(f"the foot in the scan is {length:.0f} mm long, shorter than any foot "
                              f"({MIN_FOOT_MM:.0f} mm): it is cut")
@@ -282,15 +283,13 @@ def _end_reach(points: np.ndarray, skin: Skin, end: int) -> float:
     return float(skin.tree.query(points[end], k=END_DENSITY_NEIGHBOURS + 1)[0][-1])
 
 
-def _end_shortfall(skin: Skin, along: np.ndarray, end: int, reach_mm: float, tip_radius_mm: float) -> float:
-    """How far (mm) the foot's end may lie beyond the point read as it, ``end`` (the
-    third skin point in the order of ``along`` (n,), mm): the two points skipped before
-    it, and on a cloud the gap its sampling may leave before the tip (module docstring,
-    "A sparse end"): 3 r^2 / (2 k ``tip_radius_mm``), r = ``reach_mm``
-    (:func:`_end_reach`, k = END_DENSITY_NEIGHBOURS)."""
-    first = skin.first(np.arange(len(along)), along)
-    skipped = float(along[end] - along[first]) if first is not None else 0.0
-    return skipped + 3.0 * reach_mm**2 / (2.0 * END_DENSITY_NEIGHBOURS * tip_radius_mm)
+def _end_shortfall(skipped_mm: float, reach_mm: float, tip_radius_mm: float) -> float:
+    """How far (mm) the foot's end may lie beyond the point read as it (the third skin
+    point from that end): the ``skipped_mm`` to the first, and on a cloud the gap its
+    sampling may leave before the tip (module docstring, "A sparse end"):
+    3 r^2 / (2 k ``tip_radius_mm``), r = ``reach_mm`` (:func:`_end_reach`, k =
+    END_DENSITY_NEIGHBOURS)."""
+    return float(skipped_mm) + 3.0 * reach_mm**2 / (2.0 * END_DENSITY_NEIGHBOURS * tip_radius_mm)
 
 
 def _heel_instep(points: np.ndarray, faces: np.ndarray | None, axis: np.ndarray, across: np.ndarray,

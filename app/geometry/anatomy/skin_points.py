@@ -153,24 +153,29 @@ class Skin:
 
     def first(self, index: np.ndarray, key: np.ndarray, skip: int = 0) -> int | None:
         """The (``skip`` + 1)-th skin point of ``index`` (k,) in the order of ``key`` (k,)
-        rising (its index into the points), None when there are not so many; the spacing
-        is that of the SPACING_SAMPLE points first in that order (where the decision is)."""
-        if len(index) <= skip:
-            return None
-        if self.tree is None:  # a mesh: the (skip + 1)-th in order, found without sorting them all
-            return int(index[np.argpartition(key, skip)[skip]])
+        rising (its index into the points), None when there are not so many
+        (:meth:`leading`)."""
+        found = self.leading(index, key, skip + 1)
+        return int(found[skip]) if len(found) > skip else None
+
+    def leading(self, index: np.ndarray, key: np.ndarray, count: int) -> np.ndarray:
+        """The first ``count`` skin points of ``index`` (k,) in the order of ``key`` (k,)
+        rising (indices into the points; fewer when there are not so many); the spacing is
+        that of the SPACING_SAMPLE points first in that order (where the decision is)."""
+        if not len(index) or count < 1:
+            return np.zeros(0, dtype=np.int64)
+        if self.tree is None:  # a mesh: the first in order, found without sorting them all
+            part = np.argpartition(key, min(count, len(key)) - 1)[:count]
+            return index[part[np.argsort(key[part], kind="stable")]]
         leading = np.argpartition(key, min(SPACING_SAMPLE, len(key) - 1))[:SPACING_SAMPLE]
         order = index[leading[np.argsort(key[leading], kind="stable")]]  # the spacing is theirs
-        found = 0
+        found: list[np.ndarray] = []
         for start in range(0, len(order), STRAY_BATCH):  # one batch unless hundreds of strays lie first
             batch = order[start:start + STRAY_BATCH]
-            skin = np.flatnonzero(self.of(batch, order))
-            if found + len(skin) > skip:
-                return int(batch[skin[skip - found]])
-            found += len(skin)
+            found.append(batch[self.of(batch, order)])
+            if sum(map(len, found)) >= count:
+                return np.concatenate(found)[:count]
         if len(index) > SPACING_SAMPLE:  # more strays than the first SPACING_SAMPLE points: all, in order
-            rest = np.argsort(key, kind="stable")[SPACING_SAMPLE:]
-            skin = np.flatnonzero(self.of(index[rest], order))
-            if found + len(skin) > skip:
-                return int(index[rest[skin[skip - found]]])
-        return None
+            rest = index[np.argsort(key, kind="stable")[SPACING_SAMPLE:]]
+            found.append(rest[self.of(rest, order)])
+        return np.concatenate(found)[:count]

@@ -27,11 +27,11 @@ from app.geometry.scan.gltf_count import MAX_MESH_INSTANCES, gltf_json, gltf_sce
 from app.geometry.scan.integrity import binary_stl_count, check_ply_integrity, check_stl_integrity
 from app.geometry.scan.text_cloud import read_text_cloud
 
-#: file extensions (lower case, no dot) the reader accepts
-#: (pts: Leica's text cloud; asc: the ASCII cloud Geomagic and CloudCompare export)
-SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf", "xyz", "csv", "txt", "pts", "asc")
-#: the formats read as text point clouds (app.geometry.scan.text_cloud)
+#: the formats read as text point clouds (app.geometry.scan.text_cloud; pts: Leica's
+#: text cloud, asc: the ASCII cloud Geomagic and CloudCompare export)
 TEXT_CLOUD_FORMATS = ("xyz", "csv", "txt", "pts", "asc")
+#: file extensions (lower case, no dot) the reader accepts: trimesh's meshes, then the text clouds
+SUPPORTED_FORMATS = ("stl", "ply", "obj", "off", "glb", "gltf") + TEXT_CLOUD_FORMATS
 
 #: millimetres per unit
 UNIT_SCALE_MM = {"mm": 1.0, "cm": 10.0, "m": 1000.0, "in": 25.4}
