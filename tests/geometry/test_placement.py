@@ -114,13 +114,17 @@ def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path
         assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
 
 
+@pytest.mark.parametrize("cut_mm", [400.0, 650.0])
 @pytest.mark.parametrize("cut_side", ["left", "right"])
-def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_side(female_body, tmp_path, cut_side):
-    """The body cut at the hips as above, and one leg cut 400 mm above the sole (no ankle,
-    no calf): the other leg is the only one placed.  Asked for the cut leg, the service
-    refuses and names the leg it could measure (before, it measured the other leg and
-    labelled it with the side asked); asked for none or for the whole one, it measures the
-    whole one, its side told by where the cut leg stands."""
+def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_side(female_body, tmp_path, cut_side, cut_mm):
+    """The body cut at the hips as above, and one leg cut ``cut_mm`` above the sole (no
+    ankle, no calf; at 650 mm only its upper thigh is left, 100 mm below the hips cut):
+    the other leg is the only one placed.  Asked for the cut leg, the service refuses and
+    names the leg it could measure (before, it measured the other leg and labelled it
+    with the side asked; at 650 mm it did so until the foot and the thigh left beside it
+    were read together); asked for none or for the whole one, it measures the whole one,
+    its side told by where the cut leg stands or, where too little of it is left to tell
+    the side alone, by the foot."""
     body, _ = female_body
     vertices = body.points_mm
     sole = vertices[:, 1].min()
@@ -129,7 +133,7 @@ def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_si
     ankles = {side: check_scan(body, FitOptions(side=side)).origin_mm for side in ("left", "right")}
     between = 0.5 * (ankles["left"][0] + ankles["right"][0])  # the files stand along +y, legs apart along x
     on_cut_leg = (np.sign(hips.vertices[:, 0] - between) == np.sign(ankles[cut_side][0] - between)) \
-        & (hips.vertices[:, 1] < sole + 400.0)
+        & (hips.vertices[:, 1] < sole + cut_mm)
     hips.update_faces(~on_cut_leg[hips.faces].any(axis=1))
     hips.remove_unreferenced_vertices()
     path = tmp_path / "one_leg_cut.ply"
@@ -143,7 +147,8 @@ def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_si
     assert f"the {cut_side} leg" in str(refused.value)
     for asked in (None, whole):
         placement = check_scan(scan, FitOptions(side=asked))
-        assert placement.side == whole and placement.side_source == ("body" if asked is None else "given")
+        told_by = "body" if cut_mm < 600.0 else "foot"
+        assert placement.side == whole and placement.side_source == (told_by if asked is None else "given")
         assert np.linalg.norm(np.asarray(placement.origin_mm) - ankles[whole]) < 15.0
 
 

@@ -28,7 +28,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from app.geometry.anatomy.other_leg import OtherLeg, other_leg_beside
+from app.geometry.anatomy.other_leg import OtherLeg, other_leg_beside, other_leg_confirmed
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
@@ -214,12 +214,17 @@ def one_copy_per_leg(legs: list[tuple[_Candidate, LegPlacement]]) -> tuple[list[
     return kept, warnings
 
 
-def _other_leg(clean: CleanScan, placement: LegPlacement) -> OtherLeg | None:
+def _other_leg(clean: CleanScan, placement: LegPlacement, confirming: bool = False) -> OtherLeg | None:
     """A second leg beside the placed one anywhere in the cleaned scan (its own piece's
-    other half, or a piece of its own), :func:`app.geometry.anatomy.other_leg.other_leg_beside`;
-    the occupancy cell bridges twice the scan's point spacing, as the two-leg split's."""
+    other half, or a piece of its own), :func:`app.geometry.anatomy.other_leg.other_leg_beside`:
+    one that tells the side alone or, ``confirming``, one seen well enough to confirm the
+    foot (:func:`app.geometry.anatomy.other_leg.other_leg_confirmed`); the occupancy cell
+    bridges twice the scan's point spacing, as the two-leg split's."""
     pixel = max(10.0, 2.0 * (clean.spacing_p95_mm or 0.0))
-    return other_leg_beside(placement.frame.to_calf(clean.points), placement.d_mm, pixel)
+    calf_points = placement.frame.to_calf(clean.points)
+    if confirming:
+        return other_leg_confirmed(calf_points, placement.d_mm, pixel)
+    return other_leg_beside(calf_points, placement.d_mm, pixel)
 
 
 def _why_not_placed(failures: list[tuple[_Candidate, FitFailure]], leg: str) -> str:
@@ -326,8 +331,23 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                 # toe, a bandage), but a confident foot that says otherwise is said in the
                 # record's warnings - left and right swap medial and lateral in every design
                 found, source = side, "given"
-                if (guess.side is not None and guess.side != side
-                        and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE):
+                contradicted = (guess.side is not None and guess.side != side
+                                and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE)
+                confirming = _other_leg(clean, placement, confirming=True) if contradicted else None
+                if confirming is not None and confirming.measured_side == guess.side:
+                    # ... unless a second leg, seen too briefly to tell the side alone (the
+                    # upper thigh of a leg cut off above its knee), stands where the foot
+                    # says: two cues against the side given name the leg this scan cannot
+                    # measure (benchmarks/other_leg.py 16 11: 3 legs cut 640-650 mm above
+                    # the sole were measured under the cut leg's side)
+                    raise FitFailure(
+                        FailureReason.SEVERAL_LEGS,
+                        f"the scan holds two legs, but only the {guess.side} one could be measured: its foot looks "
+                        f"like a {guess.side} foot (confidence {guess.confidence:.2f}) and the other leg's thigh, "
+                        f"above its knee, lies to its {confirming.side}; "
+                        f"{_why_not_placed(failures, f'the {side} leg')}; scan the whole {side} leg from below the "
+                        f"ankle to above the knee, or pass side={guess.side} to measure the other leg")
+                if contradicted:
                     warnings.append(
                         f"the side was given as {side}, but the foot in the scan looks like a {guess.side} foot "
                         f"(confidence {guess.confidence:.2f}): the record is a {side} leg as asked; if the side is "
