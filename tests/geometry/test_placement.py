@@ -114,18 +114,20 @@ def test_two_legs_cut_at_the_hips_are_read_from_their_feet(female_body, tmp_path
         assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 3.0
 
 
-@pytest.mark.parametrize("cut_mm", [400.0, 650.0])
+@pytest.mark.parametrize("cut_mm", [160.0, 400.0, 650.0])
 @pytest.mark.parametrize("cut_side", ["left", "right"])
 def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_side(female_body, tmp_path, cut_side, cut_mm):
-    """The body cut at the hips as above, and one leg cut ``cut_mm`` above the sole (no
-    ankle, no calf; at 650 mm only its upper thigh is left, 100 mm below the hips cut):
-    the other leg is the only one placed.  Asked for the cut leg, the service refuses and
+    """The body cut at the hips as above, and one leg cut ``cut_mm`` above the sole (at
+    160 mm no ankle, a stump of calf, knee and thigh beside the whole leg's shin - the
+    pair was not cut apart and both were refused as a partial view -, at 400 mm no calf,
+    at 650 mm only its upper thigh, 100 mm below the hips cut): the other leg is the only
+    one placed, and the left leg's girths are those the whole body gives.  Asked for the cut leg, the service refuses and
     names the leg it could measure (before, it measured the other leg and labelled it
     with the side asked; at 650 mm it did so until the foot and the thigh left beside it
     were read together); asked for none or for the whole one, it measures the whole one,
     its side told by where the cut leg stands or, where too little of it is left to tell
     the side alone, by the foot."""
-    body, _ = female_body
+    body, full = female_body
     vertices = body.points_mm
     sole = vertices[:, 1].min()
     hips = crop(trimesh.Trimesh(vertices, body.faces, process=False),
@@ -150,6 +152,10 @@ def test_two_legs_of_which_one_is_cut_short_are_never_labelled_the_short_ones_si
         told_by = "body" if cut_mm < 600.0 else "foot"
         assert placement.side == whole and placement.side_source == (told_by if asked is None else "given")
         assert np.linalg.norm(np.asarray(placement.origin_mm) - ankles[whole]) < 15.0
+    if whole == "left":  # the fixture's calf is the left one
+        fit = fit_scan(scan, FitOptions(side=whole))
+        for name in ("B", "C", "D"):
+            assert abs(fit.landmarks.tape_girths_mm[name] - full.tape_girths_mm[name]) < 2.0
 
 
 # --- one leg scanned twice ----------------------------------------------------------------

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import trimesh
 
 from app.geometry.placement.leg_pairs import _two_touching_lobes, split_body_legs, split_legs
@@ -106,3 +107,36 @@ def test_two_legs_that_touch_are_cut_apart_at_their_contact():
     assert len(set(first)) == 1 and len(set(second)) == 1 and first[0] != second[0]
     ellipse = _tube(np.column_stack([98.0 * np.cos(t), 50.0 * np.sin(t)]), 800.0, 200)
     assert split_legs(np.vstack([ellipse, hips]), None) is None
+
+
+def _standing_leg(sign: float, bottom_mm: float) -> np.ndarray:
+    """One leg of a pair standing apart (mm): rings every 2 mm from ``bottom_mm`` to the
+    hips at 800 mm, round a centre 150 mm out at the feet and 100 mm out at the top
+    (``sign`` the side), radii of a foot, ankle, calf, knee and thigh."""
+    z = np.arange(bottom_mm, 800.0, 2.0)
+    radius = np.interp(z, [0.0, 80.0, 120.0, 350.0, 450.0, 800.0], [60.0, 45.0, 35.0, 55.0, 45.0, 80.0])
+    centre = sign * np.interp(z, [0.0, 800.0], [150.0, 100.0])
+    t = np.linspace(0.0, 2 * np.pi, 90, endpoint=False)
+    x = centre[:, None] + radius[:, None] * np.cos(t)
+    y = radius[:, None] * np.sin(t)
+    return np.column_stack([x.ravel(), y.ravel(), np.repeat(z, len(t))])
+
+
+@pytest.mark.parametrize("stump_mm", [150.0, 200.0, 300.0])
+def test_a_pair_whose_one_leg_is_cut_above_its_ankle_is_cut_apart_from_its_feet_end(stump_mm):
+    """Two legs joined at the hips, one cut ``stump_mm`` above the floor (no ankle: a
+    stump of calf, knee and thigh).  The thighs pair in more of their slabs than the
+    shins, yet the feet end is the thinner one: up points to the hips, and the pair is
+    cut apart along the legs (before, the thighs' end was taken for the feet and the
+    pair was one leg, refused as a partial view or a bent knee with the stump beside
+    it).  Every point of the whole leg is in one half, none of it in the stump's."""
+    whole, stump = _standing_leg(-1.0, 0.0), _standing_leg(1.0, stump_mm)
+    rng = np.random.default_rng(4)
+    hips = np.column_stack([rng.uniform(-190, 190, 8000), rng.uniform(-80, 80, 8000), rng.uniform(800, 950, 8000)])
+    pair = np.vstack([whole, stump, hips])
+    cuts = split_legs(pair, None)
+    assert cuts is not None
+    for cut in cuts:
+        assert cut.up @ np.array([0.0, 0.0, 1.0]) > 0.9
+    of_whole = [int(np.isin(cut.point_index, np.arange(len(whole))).sum()) for cut in cuts]
+    assert sorted(of_whole) == [0, len(whole)]
