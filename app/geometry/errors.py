@@ -123,6 +123,19 @@ class BridgedStrip(FitFailure):
         super().__init__(FailureReason.PARTIAL_VIEW, detail)
 
 
+class JoinedAboveCalf(FitFailure):
+    """A ``no_knee`` refusal of a reading that found the ankle and the calf and, above
+    the calf while the leg still narrows, another body part joining the sections (the
+    girth up 10% within 5 mm: the thigh of a bent knee, the other leg, a hand;
+    app.geometry.anatomy.calf_candidates.merged_above).  It outranks a partial view
+    inferred from arcs (:class:`BridgedStrip`, a guess: a join read through diagonal
+    sections looks like a strip's arcs) and yields to a knee found bent.  Crosses a
+    process boundary as a plain :class:`FitFailure`."""
+
+    def __init__(self, detail: str):
+        super().__init__(FailureReason.NO_KNEE, detail)
+
+
 class RisesToEdge(FitFailure):
     """A ``no_knee`` (``no_ankle``) refusal of a profile that only rises to the scan's
     top (bottom) edge: no ankle and no calf maximum were found, only a girth growing

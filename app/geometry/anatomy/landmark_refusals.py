@@ -6,7 +6,15 @@ stage (:func:`failure_stage`) says which of several refusals tells the most.  Un
 
 from __future__ import annotations
 
-from app.geometry.errors import BridgedStrip, CalfWithoutBulge, FailureReason, FitFailure, FootFound, RisesToEdge
+from app.geometry.errors import (
+    BridgedStrip,
+    CalfWithoutBulge,
+    FailureReason,
+    FitFailure,
+    FootFound,
+    JoinedAboveCalf,
+    RisesToEdge,
+)
 
 #: how far a candidate got before it failed (higher is more informative)
 #: (a leg seen from one side, app.geometry.placement.coverage, is the most informative:
@@ -26,7 +34,12 @@ def failure_stage(failure: FitFailure) -> float:
     (:class:`RisesToEdge`) below a missing ankle; a partial view inferred from a shape
     refusal (:class:`BridgedStrip`) above a missing knee and below a knee found bent
     (robustness 220 7, seated-04: a knee bent 90 degrees read along the L's diagonal has
-    sections whose arcs read like a strip's)."""
+    sections whose arcs read like a strip's); a join above a narrowing calf
+    (:class:`JoinedAboveCalf`) between that partial view and a knee found bent (robustness
+    220 23, seated-04: the thigh joins the shank's sections under its knee waist, and
+    the diagonal reading's arcs were all that was left to say)."""
+    if isinstance(failure, JoinedAboveCalf):
+        return 2.4
     if isinstance(failure, BridgedStrip):
         return 2.25
     if isinstance(failure, CalfWithoutBulge):
@@ -60,6 +73,20 @@ def no_knee(span_mm: float) -> FitFailure:
     )
 
 
+def knee_unreadable(at_mm: float, rise: float, above: str = "the calf maximum") -> FitFailure:
+    """The leg's sections widen by ``rise`` (a fraction) within a few mm ``at_mm`` above
+    ``above`` (the calf maximum, or the ankle) while the leg below still narrows or has
+    no knee waist: another body part joins them, and the knee waist lies among sections
+    that are not the leg's alone."""
+    return JoinedAboveCalf(
+        "the knee waist (D, the narrowest part of the leg below the knee) could not be found: "
+        f"{at_mm:.0f} mm above {above} the leg's cross-sections widen by {100 * rise:.0f}% within a few "
+        "millimetres - another body part joins them there (the thigh of a bent knee, the other leg, a hand) - "
+        "and below that the leg has no knee waist. Scan the leg standing, with the other leg and the hands clear "
+        "of it from the ankle to above the knee.",
+    )
+
+
 def lost_inside_window(failure: FitFailure, window_mm: tuple[float, float], scan_mm: tuple[float, float],
                        tilt_deg: float) -> FitFailure:
     """``failure`` of the landmarks found again on a profile cut to ``window_mm`` (low,
@@ -69,8 +96,8 @@ def lost_inside_window(failure: FitFailure, window_mm: tuple[float, float], scan
     end, not the scan's) but a landmark lost along the new axis.  Same class and reason,
     so the refusals rank as before (:func:`failure_stage`); other failures as they are."""
     knee = failure.reason is FailureReason.NO_KNEE
-    if not (knee or failure.reason is FailureReason.NO_ANKLE):
-        return failure
+    if not (knee or failure.reason is FailureReason.NO_ANKLE) or isinstance(failure, JoinedAboveCalf):
+        return failure  # (a join says what lies in the window's sections, not where the window ends)
     if (scan_mm[1] <= window_mm[1]) if knee else (scan_mm[0] >= window_mm[0]):
         return failure
     what = ("the knee waist (D, the narrowest part of the leg below the knee)" if knee else

@@ -30,7 +30,7 @@ import dataclasses
 import numpy as np
 
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM
-from app.geometry.errors import BridgedStrip, FailureReason, FitFailure
+from app.geometry.errors import BridgedStrip, FailureReason, FitFailure, JoinedAboveCalf
 from app.geometry.sections.polar import MAX_GAP_DEG, PolarSections
 
 #: a strip missing along a quarter of the leg's length: a hole spans a few cm of it (the
@@ -104,7 +104,10 @@ def bridged_strip_refusal(failure: FitFailure, sections: PolarSections) -> FitFa
     remaining skin's centroid, which the missing strip shifts away from it, an arc looks
     narrower) at 20-24% of its heights beyond the limit and was refused ``no_knee``.
     The refusal keeps the shape reading's words."""
-    if failure.reason not in SHAPE_REFUSALS or sections.largest_gap_deg is None or sections.gap_middle_rad is None:
+    # (a join of another body part above the leg is read off the girth's jump, which no
+    # missing strip makes: that refusal names the cause)
+    if (failure.reason not in SHAPE_REFUSALS or isinstance(failure, JoinedAboveCalf)
+            or sections.largest_gap_deg is None or sections.gap_middle_rad is None):
         return None
     held = sections.coverage > 0
     radius = sections.mean_radii()  # NaN where the section was not read (a cloud's open beyond the limit)

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from app.geometry.anatomy.calf_candidates import FeatureHeights
+from app.geometry.anatomy.calf_candidates import MERGE_RISE, MERGE_RUN_MM, FeatureHeights
 from app.geometry.anatomy.landmark_refusals import lost_inside_window
 from app.geometry.anatomy.landmarks import find_feature_heights
 from app.geometry.errors import FailureReason, FitFailure
@@ -39,11 +39,6 @@ REDETECT_DEG = 2.0
 MIN_END_COVERAGE = 0.9
 #: an oblique crop (up to ~15 degrees across a 70 mm leg) spans this much of the axis, mm
 END_CUT_MM = 25.0
-#: a leg's girth rises at most ~1%/mm anywhere above the ankle (about 0.5%/mm at the
-#: knee): a rise of 10% within 5 mm means the plane has reached another body part (a
-#: bent knee's thigh); the corpus truth ends the shank's sections by the same rule
-MERGE_RISE = 0.10
-MERGE_RUN_MM = 5.0
 #: rays of the coarse profile (circumference error of a 36-gon: 0.13%)
 COARSE_ANGLES = 36
 #: the shank's long axis is the line through the section centroids from B to this share

@@ -7,7 +7,7 @@ from scipy.interpolate import PchipInterpolator
 
 from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION
 from app.geometry.anatomy.landmarks import find_feature_heights
-from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
+from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, JoinedAboveCalf
 
 
 def _calf_with_a_flank_bump(top_mm: float) -> tuple[np.ndarray, np.ndarray]:
@@ -213,3 +213,30 @@ def test_a_knee_waist_over_the_thigh_is_no_ankle_on_its_foot():
         find_feature_heights(-z[::-1], girth[::-1], elongation=elongation[::-1])
     found = find_feature_heights(z, girth, elongation=elongation)
     assert found.on_foot and abs(found.b_mm - 110.0) < 15.0 and abs(found.d_mm - 440.0) < 15.0
+
+
+@pytest.mark.parametrize("joins_mm", [350.0, 420.0])
+def test_a_limb_joining_the_sections_above_the_calf_is_no_knee_waist(joins_mm):
+    """The leg's profile (ankle at 40 mm, calf at 280, knee waist at 390) with another
+    limb joining its sections at ``joins_mm`` (the other leg touching this one: the girth
+    doubles within 2 mm, and widens on up the two thighs).  Joined at 350 mm, the leg still narrows into the
+    join: the smoothed profile's rise into it is no knee waist, and the refusal says what
+    lies in the sections (before, D was read 10 mm below the join, 17 mm rounder than the
+    knee waist).  Joined at 420 mm, above the knee waist and the rise over it, D is found
+    at its waist as without the limb."""
+    z, girth = _calf_with_a_flank_bump(600.0)
+    at_join = float(np.interp(joins_mm, z, girth))
+    joined = np.where(z >= joins_mm, 2.0 * at_join + 0.5 * (z - joins_mm), girth)
+    alone = find_feature_heights(z, girth)
+    if joins_mm < 390.0:
+        with pytest.raises(FitFailure) as caught:
+            find_feature_heights(z, joined)
+        assert caught.value.reason is FailureReason.NO_KNEE
+        said = caught.value.detail
+        assert isinstance(caught.value, JoinedAboveCalf) and "another body part joins them" in said
+        # the join named from the calf below it, or from the ankle below the bulge above it
+        assert (f"{joins_mm - alone.c_mm:.0f} mm above the calf maximum" in said
+                or f"{joins_mm - alone.b_mm:.0f} mm above the ankle" in said), said
+    else:
+        found = find_feature_heights(z, joined)
+        assert abs(found.d_mm - alone.d_mm) < 2.0 and abs(found.girth_d_mm - alone.girth_d_mm) < 1.0
