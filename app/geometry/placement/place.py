@@ -372,8 +372,13 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
         warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
                         "the knee angle, and measured only where that cut leaves its sections whole")
     if placement.b_at_scan_edge:
-        warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge; "
-                        "include the heel in the next scan for a surer ankle")
+        # the edge passes as B when the girth levels off into it; a leg cut 27 mm above its
+        # ankle waist, whose cut's partial sections level off, read cB 8.2 mm high and cB1
+        # 3.4 (benchmarks/other_leg.py 24 3, case 14): the warning says how it may be wrong
+        warnings.append("the scan starts at the ankle minimum B: B is taken at the scan's edge, where the girth "
+                        "levels off; if the ankle narrows further below the scan, cB and cB1 read high (by up to 8 "
+                        "mm on a leg cut 27 mm above its ankle waist) - include the heel in the next scan for a "
+                        "surer ankle")
     if placement.d_at_window_edge and not placement.d_at_scan_edge:
         warnings.append("the knee waist D has no distinct minimum below the knee: D is the top of its search window "
                         f"({placement.d_mm - placement.c_mm:.0f} mm above the calf maximum), and its height and girth "
