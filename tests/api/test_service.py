@@ -215,6 +215,7 @@ def test_a_job_that_cannot_be_fitted_fails_with_the_reason(tmp_path):
         job = wait_for_job(running, response.headers["location"])
     assert job["status"] == "failed" and job["record_id"] is None
     assert job["error"]["code"] == "unreadable_file" and job["error"]["type"].endswith(":unreadable_file")
+    assert job["error"]["title"] == "The scan file cannot be read"
     assert "cannot be opened" in job["error"]["detail"] and job["finished_at"]
     assert str(tmp_path) not in job["error"]["detail"] and sha not in job["error"]["detail"]  # no server path
 
@@ -230,17 +231,18 @@ def test_a_side_given_against_the_foot_is_warned_in_the_job_and_the_record(clien
 
 
 @pytest.mark.slow
-def test_a_leg_scanned_seated_fails_its_job_as_knee_bent_with_its_title(client):
-    """The upload check places the calf of a knee bent 87 degrees (benchmarks' corpus, seed
-    11, seated-02); the fit job refuses it, and the job names the bent knee: code, title
-    and a detail asking for the leg straight (no_calf and several_legs had no title, and a
-    job failed with one answered 500)."""
+def test_a_leg_scanned_seated_is_refused_at_upload_as_knee_bent_with_its_title(client):
+    """A knee bent 87 degrees (benchmarks' corpus, seed 11, seated-02) is refused by the
+    upload check, before any job is queued: problem+json with the code, its title and a
+    detail asking for the leg straight.  (Before, the check placed a calf whose knee waist
+    lay under the thigh - the thigh's join read as the rise above it - and the fit job
+    refused it after queueing; no_calf and several_legs had no title, and a job failed
+    with one answered 500: a failed job's title is asserted on the unreadable scan's.)"""
     from benchmarks.corpus.cases import build_case, corpus_specs
 
     case = build_case({s.case_id: s for s in corpus_specs(220, 11)}["seated-02"])
     response = client.post("/api/v1/scans", files={"file": (f"seated.{case.file_type}", case.data, "application/octet-stream")})
-    assert response.status_code == 202, response.text
-    job = wait_for_job(client, response.headers["location"])
-    assert job["status"] == "failed" and job["record_id"] is None
-    assert job["error"]["code"] == "knee_bent" and job["error"]["title"] == "The knee is bent too far to measure the calf"
-    assert "knee straight" in job["error"]["detail"]
+    assert response.status_code == 422 and response.headers["content-type"] == "application/problem+json"
+    problem = response.json()
+    assert problem["code"] == "knee_bent" and problem["title"] == "The knee is bent too far to measure the calf"
+    assert "knee straight" in problem["detail"]
