@@ -126,7 +126,7 @@ class BridgedStrip(FitFailure):
 class JoinedAboveCalf(FitFailure):
     """A ``no_knee`` refusal of a reading that found the ankle and the calf and, above
     the calf while the leg still narrows, another body part joining the sections (the
-    girth up 10% within 5 mm: the thigh of a bent knee, the other leg, a hand;
+    girth up 25% within 5 mm: the thigh of a bent knee, the other leg, a hand;
     app.geometry.anatomy.calf_candidates.merged_above).  It outranks a partial view
     inferred from arcs (:class:`BridgedStrip`, a guess: a join read through diagonal
     sections looks like a strip's arcs) and yields to a knee found bent.  Crosses a

@@ -174,23 +174,39 @@ def _rises_below(heights: np.ndarray, g: np.ndarray, i: int) -> bool:
 #: shank's sections by the same rule
 MERGE_RISE = 0.10
 MERGE_RUN_MM = 5.0
+#: ... but a profile read from a scan, not from a shank cut free at its knee, is noisy: a
+#: sparse cloud's section reads 5% low, and across unread sections its girth rose 10.5% in
+#: 9 mm (robustness 220 7, sparse_leg_vertices-02, 1.2%/mm on the calf's lower flank).
+#: Another body part joining the sections adds its own girth: the other leg's knee or the
+#: thigh of a bent knee 80-100% (other_leg.py 24 3 case 13, robustness 220 23 seated-04),
+#: a forearm beside a 350 mm calf at least 40% (ANSUR II: forearm girth >= 200 mm, against
+#: the calf's 300-420).  A join rises by at least this within MERGE_RUN_MM
+JOIN_RISE = 0.25
 
 
-def merged_above(heights: np.ndarray, raw: np.ndarray, index: int, reach_mm: float) -> int | None:
-    """The first index within ``reach_mm`` above ``index`` where the measured girth
-    ``raw`` (k,) jumps by MERGE_RISE within MERGE_RUN_MM and stays up MERGE_RUN_MM
-    further (another body part joins the sections; noise does not last), or None.
-    heights (k,) ascending, evenly spaced, mm."""
+def merged_above(heights: np.ndarray, raw: np.ndarray, index: int, reach_mm: float) -> tuple[int, float] | None:
+    """The first index within ``reach_mm`` above ``index``, and the rise there (a
+    fraction), where the measured girth
+    ``raw`` (k,) rises by JOIN_RISE within MERGE_RUN_MM - over the higher of the two
+    sections MERGE_RUN_MM and one spacing more below it - and stays so MERGE_RUN_MM
+    further up (another body part joins the sections), or None; None too where those
+    sections are not measured (a rise over a gap is no rise within MERGE_RUN_MM).  The
+    higher of two, not one: a sparse cloud's single section reading 5% low is no level
+    to rise from.  heights (k,) ascending, evenly spaced, mm."""
     spacing = float(np.median(np.diff(heights)))
     run = max(int(round(MERGE_RUN_MM / spacing)), 1)
-    j = np.arange(index + run, len(heights))
+    j = np.arange(index + run + 1, len(heights))
     j = j[heights[j] <= heights[index] + reach_mm]
     if not j.size:
         return None
-    before, later = raw[j - run], raw[np.minimum(j + run, len(raw) - 1)]
+    below = np.fmax(raw[j - run], raw[j - run - 1])  # NaN only where both are
+    later = raw[np.minimum(j + run, len(raw) - 1)]
     with np.errstate(invalid="ignore"):
-        jumps = (raw[j] > (1.0 + MERGE_RISE) * before) & ~(later < (1.0 + MERGE_RISE) * before)
-    return int(j[jumps][0]) if jumps.any() else None
+        jumps = (raw[j] > (1.0 + JOIN_RISE) * below) & ~(later < (1.0 + JOIN_RISE) * below)
+    if not jumps.any():
+        return None
+    first = int(np.argmax(jumps))
+    return int(j[first]), float(raw[j[first]] / below[first] - 1.0)
 
 
 def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailure:
@@ -230,9 +246,7 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
     # 880 mm "calf" was placed and refused only by the record's knee check)
     joined = merged_above(heights, raw, int(ib), float(zc - heights[ib]))
     if joined is not None:
-        run = max(int(round(MERGE_RUN_MM / spacing)), 1)
-        return knee_unreadable(float(heights[joined] - heights[ib]), float(raw[joined] / raw[joined - run] - 1.0),
-                               "the ankle")
+        return knee_unreadable(float(heights[joined[0]] - heights[ib]), joined[1], "the ankle")
     # walk down from B until the girth passes the foot's or the sections turn as
     # elongated as a foot's (a knee waist has only the calf below it, a real ankle the
     # heel and instep)
@@ -293,11 +307,10 @@ def check_candidate(profile: GirthProfile, ic: int) -> FeatureHeights | FitFailu
         # few sigma, and that rise made a minimum of a leg still narrowing 0.7 mm per mm
         # into the other leg's knee: cD 26 mm over the knee waist's (benchmarks/other_leg.py
         # 24 3, case 13: the other leg cut at its calf, touching this one at the knee)
-        run = max(int(round(MERGE_RUN_MM / spacing)), 1)
-        own = np.where(heights < heights[merge], raw, np.nan)
+        own = np.where(heights < heights[merge[0]], raw, np.nan)
         edge = float(heights[np.isfinite(own)][-1])
         if not minimum_reached_at_edge(heights, own, edge, -1):
-            return knee_unreadable(float(heights[merge] - zc), float(raw[merge] / raw[merge - run] - 1.0))
+            return knee_unreadable(float(heights[merge[0]] - zc), merge[1])
     over = (heights > heights[id_]) & (heights <= heights[id_] + 150.0)
     d_edge = False
     if top - heights[id_] < INTERIOR_MARGIN_MM or not over.any() or g[over].max() < g[id_] + 0.5:
