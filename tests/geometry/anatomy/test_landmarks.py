@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.interpolate import PchipInterpolator
 
-from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION
+from app.geometry.anatomy.calf_candidates import MAX_CALF_ELONGATION, merged_above
 from app.geometry.anatomy.landmarks import find_feature_heights
 from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure, JoinedAboveCalf
 
@@ -240,3 +240,23 @@ def test_a_limb_joining_the_sections_above_the_calf_is_no_knee_waist(joins_mm):
     else:
         found = find_feature_heights(z, joined)
         assert abs(found.d_mm - alone.d_mm) < 2.0 and abs(found.girth_d_mm - alone.girth_d_mm) < 1.0
+
+
+def test_a_join_is_a_jump_no_leg_makes_and_a_sparse_profiles_noise_is_none():
+    """merged_above on a level 300 mm girth every 3 mm (a sparse cloud's slabs): a leg's
+    own sections doubling (the other leg's knee) is a join at the step, its rise 100%; a
+    section reading 5% low before a 20% rise, a 12% step (a calf's flank, or noise), and a
+    27% step across three unread sections (no level read 5-10 mm below it) are none."""
+    z = np.arange(0.0, 150.0, 3.0)
+    level = np.full(len(z), 300.0)
+    step = np.flatnonzero(z >= 90.0)[0]
+    doubled = np.where(z >= 90.0, 600.0, level)
+    assert merged_above(z, doubled, 0, 150.0) == (step, pytest.approx(1.0))
+    low_then_up = np.where(z >= 90.0, 360.0, level)  # 20% up: 26% over the low section alone
+    low_then_up[step - 2] = 285.0
+    assert merged_above(z, low_then_up, 0, 150.0) is None
+    assert merged_above(z, np.where(z >= 90.0, 336.0, level), 0, 150.0) is None
+    across_gap = np.where(z >= 90.0, 380.0, level)
+    across_gap[step - 3 : step] = np.nan
+    assert merged_above(z, across_gap, 0, 150.0) is None
+    assert merged_above(z, doubled, 0, 60.0) is None  # beyond the reach asked
