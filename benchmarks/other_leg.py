@@ -87,6 +87,11 @@ def one_leg_cut(rng: np.random.Generator) -> tuple[bytes, str, str, dict, Case, 
     return data, file_type, cut, notes, *cases
 
 
+def girth_errors(fitted: dict) -> dict:
+    """A run_case result's girth errors as the order form names them (cB, ...), mm."""
+    return {f"c{k}": round(v, 2) for k, v in (fitted.get("girth_error_mm") or {}).items()}
+
+
 def main(cases: int = 16, seed: int = 3) -> dict:
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -101,7 +106,7 @@ def main(cases: int = 16, seed: int = 3) -> dict:
         for asked, label in ((cut, "cut"), (whole, "whole"), (None, "none")):
             if label == "whole":  # checked and fitted as an upload is, its girths against its own
                 fitted = run_case(whole_case)
-                errors = {f"c{k}": round(v, 2) for k, v in (fitted.get("girth_error_mm") or {}).items()}
+                errors = girth_errors(fitted)
                 if fitted["outcome"] != "fit":
                     answer, verdict = {"refused": fitted["outcome"]}, f"refused {fitted['outcome']}"
                 else:
@@ -120,7 +125,7 @@ def main(cases: int = 16, seed: int = 3) -> dict:
                     "WRONG" if placement.side == cut and measured == whole else "no side")
                 if placement.side == cut and measured == cut:  # the cut leg itself, from the cut up
                     fitted = run_case(cut_case)
-                    errors = {f"c{k}": round(v, 2) for k, v in (fitted.get("girth_error_mm") or {}).items()}
+                    errors = girth_errors(fitted)
                     off = max((abs(e) for e in errors.values()), default=np.inf)
                     answer["girth_error_mm"] = errors
                     verdict = "its own leg" if off <= STUMP_OFF_MM else f"its own leg, {off:.0f} mm off"

@@ -129,8 +129,8 @@ def _shin_side_coordinate(local: np.ndarray, shins: np.ndarray, apart: bool, alo
     short is not (the whole leg's foot and ankle tilt it towards that leg, and a plane
     holding it, drawn from the knees, cut through that foot).
     """
-    step = max(int(shins.sum()) // 20000, 1)
-    shin_xy = local[shins, :2][::step]
+    shin_3d = local[shins][:: max(int(shins.sum()) // 20000, 1)]
+    shin_xy = shin_3d[:, :2]
     km = KMeans(n_clusters=2, n_init=3, random_state=0).fit(shin_xy)
     c0, c1 = km.cluster_centers_
     gap = np.linalg.norm(c1 - c0)
@@ -148,7 +148,6 @@ def _shin_side_coordinate(local: np.ndarray, shins: np.ndarray, apart: bool, alo
         if nearest.min() < SHIN_GAP_MM:
             return None
     if along_legs:
-        shin_3d = local[shins][::step]
         centres, directions = [], []
         for label in (0, 1):
             leg = shin_3d[km.labels_ == label]

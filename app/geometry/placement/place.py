@@ -28,7 +28,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
-from app.geometry.anatomy.other_leg import OtherLeg, other_leg_beside, other_leg_confirmed
+from app.geometry.anatomy.other_leg import other_leg_beside, other_leg_confirmed
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
@@ -214,17 +214,12 @@ def one_copy_per_leg(legs: list[tuple[_Candidate, LegPlacement]]) -> tuple[list[
     return kept, warnings
 
 
-def _other_leg(clean: CleanScan, placement: LegPlacement, confirming: bool = False) -> OtherLeg | None:
-    """A second leg beside the placed one anywhere in the cleaned scan (its own piece's
-    other half, or a piece of its own), :func:`app.geometry.anatomy.other_leg.other_leg_beside`:
-    one that tells the side alone or, ``confirming``, one seen well enough to confirm the
-    foot (:func:`app.geometry.anatomy.other_leg.other_leg_confirmed`); the occupancy cell
-    bridges twice the scan's point spacing, as the two-leg split's."""
-    pixel = max(10.0, 2.0 * (clean.spacing_p95_mm or 0.0))
-    calf_points = placement.frame.to_calf(clean.points)
-    if confirming:
-        return other_leg_confirmed(calf_points, placement.d_mm, pixel)
-    return other_leg_beside(calf_points, placement.d_mm, pixel)
+def _scan_round_leg(clean: CleanScan, placement: LegPlacement) -> tuple[np.ndarray, float]:
+    """The whole cleaned scan (its own piece's other half, pieces of their own) in the
+    placed leg's calf frame, (n, 3) mm, and the occupancy cell the other-leg rules read it
+    on (:mod:`app.geometry.anatomy.other_leg`): twice the scan's point spacing, as the
+    two-leg split's."""
+    return placement.frame.to_calf(clean.points), max(10.0, 2.0 * (clean.spacing_p95_mm or 0.0))
 
 
 def _why_not_placed(failures: list[tuple[_Candidate, FitFailure]], leg: str) -> str:
@@ -312,7 +307,8 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     confidence: float | None = None
     if len(legs) == 1:
         candidate, placement = legs[0]
-        beside = _other_leg(clean, placement)
+        round_leg, pixel = _scan_round_leg(clean, placement)
+        beside = other_leg_beside(round_leg, placement.d_mm, pixel)
         if beside is not None:
             # a second leg stands beside the one placed: its position tells the side, and a
             # side given against it names the leg this scan could not measure
@@ -333,7 +329,7 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                 found, source = side, "given"
                 contradicted = (guess.side is not None and guess.side != side
                                 and (guess.confidence or 0.0) >= CONTRADICTED_SIDE_CONFIDENCE)
-                confirming = _other_leg(clean, placement, confirming=True) if contradicted else None
+                confirming = other_leg_confirmed(round_leg, placement.d_mm, pixel) if contradicted else None
                 if confirming is not None and confirming.measured_side == guess.side:
                     # ... unless a second leg, seen too briefly to tell the side alone (the
                     # upper thigh of a leg cut off above its knee), stands where the foot
