@@ -26,6 +26,10 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
   says so with the bend it has.  A fold smoother than a crease (its peak wider than a
   corner's) is measured with a warning that gives how uncertain cG is.
 - **F** is halfway between E and G (RAL-GZ 387: the middle of the thigh).
+
+Something lying against the thigh below G (a hand hanging at the side) leaves the thigh
+beneath it out of the scan: G, and F halfway to it, are then not measured
+(:mod:`app.geometry.anatomy.thigh_contact`).
 """
 
 from __future__ import annotations
@@ -40,6 +44,7 @@ from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle
 from app.geometry.anatomy.landmark_refusals import SCAN_STRAIGHT
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
+from app.geometry.anatomy.thigh_contact import ABOVE_G_MM, CONTACT_FROM_E_MM, thigh_contact
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.sections import LimbGraph, PolarSections, tape_sections
 
@@ -162,10 +167,11 @@ def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,
-                   edges: LimbGraph | None = None) -> ThighMeasures:
+                   edges: LimbGraph | None = None, side: str | None = None) -> ThighMeasures:
     """E, F, G of the module docstring (mm), or why not; ``edges``: a sparse cloud's
     neighbour graph, its girths read where the edges cross the tape's planes
-    (app.geometry.sections.tape_sections)."""
+    (app.geometry.sections.tape_sections); ``side`` ("left", "right" or None): the leg's,
+    where a hand against it hangs (app.geometry.anatomy.thigh_contact)."""
     if knee_bent:
         return _none("the knee is bent: the thigh is cut free of the shank (a thigh-high stocking is measured standing)")
     top = float(points[:, 2].max())
@@ -204,7 +210,9 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # is read on the girths either side of it
     g_height = fold.height_uncertainty_mm
     over_g = np.r_[np.arange(g_mm + PROFILE_STEP_MM, g_mm + g_height, PROFILE_STEP_MM), g_mm + g_height]
-    planes = np.unique(np.r_[profile_z, f_mm, over_g[(over_g > g_mm) & (over_g < top - STEP_MM)]])
+    # and every PROFILE_STEP_MM from D to ABOVE_G_MM over G, where a hand is looked for
+    contact_z = np.arange(d_mm, min(g_mm + ABOVE_G_MM, top - STEP_MM), PROFILE_STEP_MM)
+    planes = np.unique(np.r_[profile_z, f_mm, over_g[(over_g > g_mm) & (over_g < top - STEP_MM)], contact_z])
     sections = tape_sections(points, faces, planes, edges)
     planes_girth = sections.tape_perimeters()
     top_of_thigh = level_on_section("G", sections, planes_girth, int(np.searchsorted(planes, g_mm)))
@@ -212,6 +220,16 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
         reason = "the section at the gluteal fold is not closed (a hole, or the scan's edge)"
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
                              warnings=warnings)
+    # a hand or anything else against the thigh below G, or at its outer side just over
+    # G: the thigh beneath it is not in the scan, and the back's profile G was read on
+    # passes it (a hand held towards the back moved G down to its fingertips), so neither
+    # G nor F, halfway to it, is measured (app.geometry.anatomy.thigh_contact)
+    lateral = {"right": 0.0, "left": np.pi}.get(side or "")  # the frame's x is the subject's right
+    contact = thigh_contact(sections, np.searchsorted(planes, contact_z), e_mm + CONTACT_FROM_E_MM, g_mm, lateral)
+    if contact is not None:
+        reason = contact.reason()
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+                             warnings=warnings + (f"cF and cG not measured: {reason}",))
     mid_thigh, top_of_thigh = read_across_tape(
         (level_on_section("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces, edges)
     # a plane without a closed section: read between its neighbours

@@ -96,7 +96,7 @@ def fit_placed_leg(leg: PlacedLeg, n_scan_points: int, options: FitOptions | Non
         # the scan reaches under the heel and the foot stands flat (app.geometry.anatomy.sole)
         sole = find_sole(local, leg.faces)
         result = dataclasses.replace(result, sole_mm=sole.height_mm, sole_reason=sole.reason)
-    thigh = thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces), graph)
+    thigh = thigh_measures(local, leg.faces, result.landmarks.D.height_mm, bool(where.half_spaces), graph, where.side)
     foot = foot_measures(local, leg.faces, result.sole_mm, result.sole_reason)
     result = dataclasses.replace(result, foot=foot, thigh=thigh,
                                  fit_warnings=result.fit_warnings + foot.warnings + thigh.warnings)

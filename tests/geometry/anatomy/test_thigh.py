@@ -428,3 +428,66 @@ def test_a_second_fold_sized_bend_below_the_fold_makes_g_uncertain_by_as_far():
     assert "bends as much as a gluteal fold does" in said and "below G" in said
     crease = thigh_measures(_leg(), None, D, knee_bent=False)
     assert crease.top_of_thigh.height_uncertainty_mm < 5.0
+
+
+def _with_hand(leg: np.ndarray, tip_mm: float, thick_mm: float = 30.0, length_mm: float = 185.0,
+               width_mm: float = 85.0) -> np.ndarray:
+    """``leg`` (n, 3) with a hand held flat against its side (+x) from ``tip_mm`` (its
+    fingertips, calf frame) up: an ellipsoid ``thick_mm`` x ``length_mm`` x ``width_mm``
+    touching the skin, sampled every ~2 mm; the skin under it is hidden, as a scanner
+    sees it."""
+    centre_z = tip_mm + length_mm / 2
+    skin_x = _radius(np.array([centre_z - D]))[0]
+    centre = np.array([skin_x + thick_mm / 2, _centre_y(np.array([centre_z - D]))[0], centre_z])
+    semi = np.array([thick_mm, width_mm, length_mm]) / 2
+    u, v = np.meshgrid(np.linspace(0.0, np.pi, 120), np.linspace(0.0, 2 * np.pi, 180), indexing="ij")
+    hand = centre + semi * np.column_stack([(np.sin(u) * np.cos(v)).ravel(), (np.sin(u) * np.sin(v)).ravel(),
+                                            np.cos(u).ravel()])
+    hidden = (((leg - centre) / (semi + 2.0)) ** 2).sum(axis=1) < 1.0
+    return np.vstack([leg[~hidden], hand[hand[:, 0] > skin_x + 2.0]])
+
+
+def test_a_hand_against_the_thigh_leaves_f_and_g_unmeasured():
+    """A hand 30 mm thick held against the thigh from below F, above F or just under G:
+    the thigh beneath it is not in the scan, and G (found on the back's profile the hand
+    passes) and F, halfway to it, say why (app.geometry.anatomy.thigh_contact); the knee
+    reads as without it."""
+    bare = thigh_measures(_leg(), None, D, knee_bent=False)
+    f_mm, g_mm = bare.mid_thigh.height_mm, bare.top_of_thigh.height_mm
+    for tip in (f_mm - 40.0, f_mm + 30.0, g_mm - 60.0, g_mm + 20.0):
+        held = thigh_measures(_with_hand(_leg(), tip), None, D, knee_bent=False, side="right")
+        assert held.top_of_thigh.girth_mm is None and held.top_of_thigh.height_mm is None
+        assert "lies against the thigh" in held.top_of_thigh.reason
+        start = float(re.search(r"from (\d+) mm above", held.top_of_thigh.reason).group(1))
+        assert tip - 26.0 <= start <= tip + 5.0  # the fingertips, less the rise read over (to 1 mm: the reason rounds)
+        assert any("lies against the thigh" in w for w in held.warnings)
+        assert held.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)
+        assert held.profile_heights_mm == ()
+        assert held.mid_thigh.girth_mm is None and held.mid_thigh.reason == held.top_of_thigh.reason
+
+
+def test_a_hand_against_a_real_thigh_is_found_and_its_bare_thigh_is_not():
+    """The BodyParts3D leg (its vertices, a cloud) with a hand against the side of its thigh
+    30 mm above F: F and G are not measured, and say why; without the hand they are (the
+    real thigh's own outline moves out by at most 5.9 mm over 20 mm of height, under the
+    10 mm rule).  (Sampled as sparsely as the leg's vertices, the same hand also hides its
+    gluteal fold from the back's profile: F and G are then not measured for that.)"""
+    scan, result = fitted("bodyparts3d_right_leg.stl", None)
+    leg = place_leg(scan, None)
+    local = leg.placement.frame.to_calf(leg.points)
+    d = result.landmarks.D.height_mm
+    bare = thigh_measures(local, None, d, False)
+    assert bare.top_of_thigh.girth_mm is not None
+    tip = bare.mid_thigh.height_mm + 30.0
+    length, thick = 185.0, 30.0
+    near = np.abs(local[:, 2] - (tip + length / 2)) < 3.0
+    side_x = local[near, 0].max()  # the right leg's outer side (+x, the subject's right)
+    centre = np.array([side_x + thick / 2, local[near, 1].mean(), tip + length / 2])
+    semi = np.array([thick, 85.0, length]) / 2
+    u, v = np.meshgrid(np.linspace(0.0, np.pi, 80), np.linspace(0.0, 2 * np.pi, 120), indexing="ij")
+    hand = centre + semi * np.column_stack([(np.sin(u) * np.cos(v)).ravel(), (np.sin(u) * np.sin(v)).ravel(),
+                                            np.cos(u).ravel()])
+    hidden = (((local - centre) / (semi + 2.0)) ** 2).sum(axis=1) < 1.0
+    held = thigh_measures(np.vstack([local[~hidden], hand[hand[:, 0] > side_x + 2.0]]), None, d, False, side="right")
+    assert held.top_of_thigh.girth_mm is None and "lies against the thigh" in held.top_of_thigh.reason
+    assert held.mid_thigh.girth_mm is None and held.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)

@@ -1,0 +1,127 @@
+"""Something lying against the thigh - a hand or a forearm hanging at the side, clothing
+or a skin fold held or hanging over it - found where it starts, so that no tape girth is
+read round the thigh and it together (RAL-GZ 387 measures the limb's skin alone; a tape
+put round a hand resting on the thigh reads the hand's thickness twice).
+
+Rule (geometry and anatomy).  Up the thigh, between the knee and the gluteal fold, the
+skin's outline changes slowly: at any angle round the section it moves outwards, beyond
+what the whole outline moves, by at most 6.5 mm over CONTACT_RISE_MM (20 mm) of height
+(measured on 43 generated legs as meshes and noisy clouds, benchmarks/corpus's MakeHuman
+legs, and the BodyParts3D leg, 5.9 mm: the quadriceps above the knee and the buttock's
+edge at G give the largest).  A hand is 25-35 mm thick (ANSUR II hand thickness at the
+metacarpals), its fingertips round: where it starts, an arc of the outline one
+CONTACT_ARC_DEG wide moves out by 15-24 mm within those 20 mm (measured: a hand 25-35 mm
+thick held against the side of 6 generated thighs as a cloud, read as cF or cG 25-35 mm
+long).  CONTACT_EXCESS_MM, 10 mm, lies between the two.  The thigh under the hand is not
+in the scan, so the points from where the rise starts up are not measured, and say why.
+
+Frame: the calf frame (mm; z up the leg).  Arrays: heights (k,) ascending, evenly spaced.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from app.geometry.sections import TAPE_BAND_OFFSETS_MM, PolarSections
+
+#: the outline is compared with the one this far below it, mm
+CONTACT_RISE_MM = 20.0
+#: ... over arcs this wide (a rise narrower is a fold of skin or a scanner's streak), degrees
+CONTACT_ARC_DEG = 20.0
+#: an arc moving outwards by more than this beyond the whole outline's median move over
+#: CONTACT_RISE_MM of height is something lying against the thigh, mm (module docstring)
+CONTACT_EXCESS_MM = 10.0
+#: the thigh is searched from this far above E (the middle of the knee), mm: above the
+#: patella's top (a patella is ~45 mm tall, its middle near E), where the quadriceps
+#: tendon's rise is the largest a bare thigh showed (5.9 mm, the BodyParts3D leg)
+CONTACT_FROM_E_MM = 50.0
+#: above G the buttock bulges back and in (its arcs move out 13-32 mm over 20 mm of
+#: height on 7 generated legs and the BodyParts3D leg), while within LATERAL_ARC_DEG of
+#: the leg's outer side the same thighs' arcs moved at most 3.9 mm as far as they reach
+#: (46-86 mm over G): a hand there still shows.  It is looked for there because a hand
+#: held towards the back moves the back's profile, and G with it, down to or below its
+#: fingertips (with only the arcs up to G judged, 2 of 24 hands on 8 generated legs read
+#: F and G 13-25 mm low and unwarned; with 40 mm over G, 1 - a hand 24 mm over G that
+#: moved it 16 mm down)
+ABOVE_G_MM = 3 * CONTACT_RISE_MM
+LATERAL_ARC_DEG = 60.0
+
+
+@dataclass(frozen=True)
+class ThighContact:
+    """Where something starts to lie against the thigh (height, calf frame, mm) and how
+    far its arc moved out beyond the outline's median move there (mm)."""
+
+    start_mm: float
+    excess_mm: float
+
+    def reason(self) -> str:
+        """Why the points from :attr:`start_mm` up are not measured, for the person who scanned."""
+        return (f"something lies against the thigh from {self.start_mm:.0f} mm above the ankle point B up (an arc of "
+                f"its outline moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, a bare "
+                f"thigh's by at most {CONTACT_EXCESS_MM:.0f}): a hand or forearm held against the leg, or clothing or "
+                "a skin fold over it; the thigh beneath it is not in the scan, so no tape can be read round the thigh "
+                "alone there - scan with the arms held away from the legs and the thigh bare")
+
+
+def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
+               arcs_judged: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """How far (mm) the most-moving arc of each section ``upper`` (m,) int lies outside
+    the section ``lower`` (m,) int below it, beyond the median move of the whole
+    outline, and that arc's angle (radians, the sections' ray angles): (m,) and (m,).
+
+    Both outlines are read from the lower section's centroid, to first order in the
+    centroids' shift (a few mm against a thigh's ~80 mm radius): along the ray at angle
+    t the upper outline lies r_up(t) + (c_up - c_low) . u(t) out, so its move is that
+    minus r_low(t); the moves are averaged over arcs CONTACT_ARC_DEG wide.  Only the arcs
+    centred on the rays ``arcs_judged`` (a,) bool count (all when None).  NaN where either
+    section is missing.
+    """
+    angles = sections.angles_rad
+    directions = np.column_stack([np.cos(angles), np.sin(angles)])  # (a, 2)
+    shift = sections.centroids_mm[upper] - sections.centroids_mm[lower]  # (m, 2)
+    move = sections.radii_mm[upper] + shift @ directions.T - sections.radii_mm[lower]  # (m, a)
+    rays = max(1, int(round(CONTACT_ARC_DEG / 360.0 * len(angles))))
+    arcs = uniform_filter1d(np.nan_to_num(move), rays, axis=1, mode="wrap")
+    judged = np.where(np.ones(len(angles), bool) if arcs_judged is None else arcs_judged, arcs, -np.inf)
+    excess = judged.max(axis=1) - np.median(arcs, axis=1)
+    missing = ~(sections.valid[upper] & sections.valid[lower])
+    excess[missing] = np.nan
+    return excess, angles[np.argmax(judged, axis=1)]
+
+
+def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm: float,
+                  lateral_rad: float | None) -> ThighContact | None:
+    """The lowest height (mm) from ``low_mm`` up where something starts to lie against
+    the thigh (module docstring): the first of ``sections``' ``rows`` (k,) int, evenly
+    spaced and ascending, whose outline moves out by more than CONTACT_EXCESS_MM over an
+    arc within CONTACT_RISE_MM of height, its start taken that rise lower (where it may
+    have begun); None where nothing does.
+
+    Up to G (``g_mm``) plus half a tape's width every arc is judged; above it, up to
+    ABOVE_G_MM over G, only the arcs within LATERAL_ARC_DEG of the leg's outer side
+    (``lateral_rad``, the calf frame's angle of it; None where the side is not known:
+    then none), where a hand hangs and the buttock does not bulge.
+    """
+    heights = sections.heights_mm[rows]
+    if len(heights) < 2:
+        return None
+    lag = max(1, int(round(CONTACT_RISE_MM / float(np.median(np.diff(heights))))))
+    upper = np.arange(lag, len(rows))
+    top = g_mm + float(TAPE_BAND_OFFSETS_MM.max())
+    anywhere = (heights[upper] >= low_mm) & (heights[upper] <= top)
+    excess = np.full(len(upper), np.nan)
+    excess[anywhere], _ = arc_excess(sections, rows[upper[anywhere]], rows[upper[anywhere] - lag])
+    if lateral_rad is not None:
+        outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM)
+        off_side = np.abs((sections.angles_rad - lateral_rad + np.pi) % (2 * np.pi) - np.pi)
+        excess[outer], _ = arc_excess(sections, rows[upper[outer]], rows[upper[outer] - lag],
+                                      off_side <= np.radians(LATERAL_ARC_DEG))
+    over = np.flatnonzero(excess > CONTACT_EXCESS_MM)
+    if not len(over):
+        return None
+    first = over[0]
+    return ThighContact(float(heights[upper[first]] - CONTACT_RISE_MM), float(excess[first]))
