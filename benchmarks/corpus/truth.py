@@ -5,8 +5,9 @@ sections and scipy's convex hull, not ``app.geometry``): planes perpendicular to
 shank axis every 1 mm, the axis first from the ankle joint to the knee joint, then
 refined as the line through the section centroids between them (a tape is held
 perpendicular to the leg's long axis).  On the hull (tape) girth profile, lightly
-smoothed (Gaussian, sigma 3 mm): C is the largest girth in the middle 20-80% of the
-shank, B the smallest between the ankle joint and C, D the smallest between C and
+smoothed (Gaussian, sigma 3 mm): C is the largest girth from 20% of the shank up to
+the knee waist (the smallest girth above the largest in the middle 20-80% of the shank,
+up to 60 mm above the knee joint), B the smallest between the ankle joint and C, D the smallest between C and
 60 mm above the knee joint, B1 the first height above B where the girth has risen half
 of the way from B's to C's (the steepest point of a sigmoid rise, paper section 2.2;
 until 2026-12 it was the largest slope itself, which moves with the noise of a
@@ -116,7 +117,16 @@ def measure_truth(mesh: trimesh.Trimesh, ankle_mm: np.ndarray, knee_mm: np.ndarr
     rise = np.zeros(len(g), dtype=bool)
     rise[:-run] = (g[run:] > (1.0 + MERGE_RISE) * g[:-run]) & (heights[:-run] > 0.5 * shank)
     end = heights[np.argmax(rise)] if rise.any() else shank + KNEE_REACH_MM
+    # C is the largest girth below the knee waist: sought first in the middle 20-80% of the
+    # shank, then, with the knee waist above that (the smallest girth from there up to the
+    # merge or 60 mm over the knee joint), up to the waist.  Until 2026-12 it was sought
+    # in the 20-80% only, which put a flat calf's C at that cap, 40 mm under its crown
+    # (benchmarks/robustness.py 220 31 floor-07)
     mid = (heights >= 0.2 * shank) & (heights <= min(0.8 * shank, end))
+    first = np.flatnonzero(mid)[np.argmax(g[mid])]
+    knee = (heights > heights[first]) & (heights <= min(shank + KNEE_REACH_MM, end))
+    if knee.any():
+        mid = (heights >= 0.2 * shank) & (heights < heights[np.flatnonzero(knee)[np.argmin(g[knee])]])
     ic = np.flatnonzero(mid)[np.argmax(g[mid])]
     below = np.flatnonzero(heights < heights[ic])
     ib = below[np.argmin(g[below])]
