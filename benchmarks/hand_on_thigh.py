@@ -88,7 +88,10 @@ def _with_hand(leg: trimesh.Trimesh, cloud: np.ndarray, tip_y: float, sign: floa
     thick, length, width = rng.uniform(25, 35), rng.uniform(170, 200), rng.uniform(75, 90)
     turn = np.radians(rng.uniform(-45, 45))
     centre_y = tip_y + length / 2
-    near = leg.vertices[np.abs(leg.vertices[:, 1] - centre_y) < 5.0]
+    # the palm rests where its middle is, or (a hand over G reaching past the scan's top,
+    # which ends at the hip) on the scan's last 10 mm
+    rest_y = min(centre_y, float(leg.vertices[:, 1].max()) - 10.0)
+    near = leg.vertices[np.abs(leg.vertices[:, 1] - rest_y) < 5.0]
     out = np.array([sign * np.cos(turn), 0.0, np.sin(turn)])  # the palm's normal, away from the leg
     middle = near.mean(axis=0)
     centre = middle + (((near - middle) @ out).max() + thick / 2) * out
@@ -114,9 +117,12 @@ def _verdict(bare: dict, held: dict, covers_g: bool) -> str:
         if all(isinstance(held[k], str) for k in ("cF", "cG")):
             return "not measured: contact" if held["cG"] == "contact" else "not measured: other reason"
         return "WRONG: read round the hand"
-    if any(isinstance(bare.get(k), str) != isinstance(held[k], str) for k in ("cF", "cG")):
+    both = [k for k in ("cF", "cG") if not isinstance(held[k], str) and not isinstance(bare.get(k, ""), str)]
+    if len(both) < 2 and any(not isinstance(bare.get(k, ""), str) for k in ("cF", "cG")):
         return "not measured: contact" if "contact" in held.values() else "not measured: other reason"
-    off = max(abs(held[k] - bare[k]) for k in ("cF", "cG") if not isinstance(held[k], str))
+    if not both:
+        return "not measured, as the bare cloud"
+    off = max(abs(held[k] - bare[k]) for k in both)
     return "right" if off <= TOLERANCE_MM else f"WRONG: {off:.0f} mm off"
 
 
