@@ -8,7 +8,8 @@ for another seed).
 Each of LEGS generated legs (an ANSUR II subject's MakeHuman leg, foot to hip,
 benchmarks/corpus, mm) is scanned bare as a mesh (STL) and as a noisy cloud (80k points,
 0.5 mm noise), then as that cloud with a hand against its thigh: an ellipsoid 25-35 mm
-thick, 170-200 mm long and 75-90 mm wide (ANSUR II hand thickness, length and breadth),
+thick, 170-200 mm long and 75-90 mm wide (an adult hand's thickness at the metacarpals,
+length and breadth),
 its palm on the skin at the leg's outer side turned -45..45 degrees towards the front or
 back, its fingertips 40 mm under F, 30 mm over F, 60 mm under G (the hand covers G), or 20
 or 50 mm over G (it does not); the skin under the hand is hidden, as a scanner sees it.

@@ -6,13 +6,14 @@ put round a hand resting on the thigh reads the hand's thickness twice).
 Rule (geometry and anatomy).  Up the thigh, between the knee and the gluteal fold, the
 skin's outline changes slowly: at any angle round the section it moves outwards, beyond
 what the whole outline moves, by at most 6.5 mm over CONTACT_RISE_MM (20 mm) of height
-(measured on 43 generated legs as meshes and noisy clouds, benchmarks/corpus's MakeHuman
-legs, and the BodyParts3D leg, 5.9 mm: the quadriceps above the knee and the buttock's
-edge at G give the largest).  A hand is 25-35 mm thick (ANSUR II hand thickness at the
-metacarpals), its fingertips round: where it starts, an arc of the outline one
-CONTACT_ARC_DEG wide moves out by 15-24 mm within those 20 mm (measured: a hand 25-35 mm
-thick held against the side of 6 generated thighs as a cloud, read as cF or cG 25-35 mm
-long).  CONTACT_EXCESS_MM, 10 mm, lies between the two.  The thigh under the hand is not
+(measured on 18 generated legs, benchmarks/corpus's MakeHuman legs, as 34 meshes and
+noisy clouds that reach G, and the BodyParts3D leg, 5.9 mm: the quadriceps above the knee
+and the buttock's edge at G give the largest).  A hand is 25-35 mm thick at the
+metacarpals (adult anthropometric tables, e.g. Pheasant's Bodyspace), its fingertips
+round: where it starts, an arc of the outline CONTACT_ARC_DEG wide moves out by 15-24 mm
+within those 20 mm (measured: a hand 25-35 mm thick held against the side of 2 generated
+thighs as a noisy cloud at 3 heights; read round it, cF came out 28-30 mm long and cG
+12-35).  CONTACT_EXCESS_MM, 10 mm, lies between the two.  The thigh under the hand is not
 in the scan, so the points from where the rise starts up are not measured, and say why.
 
 Frame: the calf frame (mm; z up the leg).  Arrays: heights (k,) ascending, evenly spaced.
@@ -61,8 +62,8 @@ class ThighContact:
     def reason(self) -> str:
         """Why the points from :attr:`start_mm` up are not measured, for the person who scanned."""
         return (f"something lies against the thigh from {self.start_mm:.0f} mm above the ankle point B up (an arc of "
-                f"its outline moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, a bare "
-                f"thigh's by at most {CONTACT_EXCESS_MM:.0f}): a hand or forearm held against the leg, or clothing or "
+                f"its outline moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, where a "
+                f"bare thigh's stay under {CONTACT_EXCESS_MM:.0f}): a hand or forearm held against the leg, or clothing or "
                 "a skin fold over it; the thigh beneath it is not in the scan, so no tape can be read round the thigh "
                 "alone there - scan with the arms held away from the legs and the thigh bare")
 
