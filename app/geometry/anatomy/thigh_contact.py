@@ -79,7 +79,7 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
     t the upper outline lies r_up(t) + (c_up - c_low) . u(t) out, so its move is that
     minus r_low(t); the moves are averaged over arcs CONTACT_ARC_DEG wide.  Only the arcs
     centred on the rays ``arcs_judged`` (a,) bool count (all when None).  NaN where either
-    section is missing.
+    section is missing or open over more than CONTACT_ARC_DEG.
     """
     angles = sections.angles_rad
     directions = np.column_stack([np.cos(angles), np.sin(angles)])  # (a, 2)
@@ -90,6 +90,12 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
     judged = np.where(np.ones(len(angles), bool) if arcs_judged is None else arcs_judged, arcs, -np.inf)
     excess = judged.max(axis=1) - np.median(arcs, axis=1)
     missing = ~(sections.valid[upper] & sections.valid[lower])
+    if sections.largest_gap_deg is not None:
+        # a section open over more than an arc (the scan's ragged top, a hole) is bridged
+        # there, not skin: its move is no contact (chart_accuracy 8 11, leg 1's clouds
+        # read 12-122 mm at the hip's cut with 25-80 degrees open)
+        gaps = sections.largest_gap_deg
+        missing |= (gaps[upper] > CONTACT_ARC_DEG) | (gaps[lower] > CONTACT_ARC_DEG)
     excess[missing] = np.nan
     return excess, angles[np.argmax(judged, axis=1)]
 
