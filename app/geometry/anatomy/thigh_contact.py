@@ -111,8 +111,7 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     Up to G (``g_mm``) plus half a tape's width every arc is judged; above it, up to
     ABOVE_G_MM over G, only the arcs within LATERAL_ARC_DEG of the leg's outer side
     (``lateral_rad``, the calf frame's angle of it; None where the side is not known:
-    then none), where a hand hangs and the buttock does not bulge - and only where the
-    arc lies out as far CONTACT_RISE_MM higher still.
+    then none), where a hand hangs and the buttock does not bulge.
     """
     heights = sections.heights_mm[rows]
     if len(heights) < 2:
@@ -124,15 +123,10 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     excess = np.full(len(upper), np.nan)
     excess[anywhere], _ = arc_excess(sections, rows[upper[anywhere]], rows[upper[anywhere] - lag])
     if lateral_rad is not None:
-        # over G the rise must still be there CONTACT_RISE_MM higher, over the section as far
-        # below (a hand goes on up; a scan's ragged top at the hip, whose bridged outlines
-        # "moved" 13-122 mm at its outer side, does not: chart_accuracy 8 11 leg 1 and 8 5
-        # leg 3, 12 clouds read a contact there with the rise alone)
-        outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM) & (upper + lag < len(rows))
-        lateral = np.abs((sections.angles_rad - lateral_rad + np.pi) % (2 * np.pi) - np.pi) <= np.radians(LATERAL_ARC_DEG)
-        rise, _ = arc_excess(sections, rows[upper[outer]], rows[upper[outer] - lag], lateral)
-        still, _ = arc_excess(sections, rows[upper[outer] + lag], rows[upper[outer] - lag], lateral)
-        excess[outer] = np.where(still > CONTACT_EXCESS_MM, rise, np.nan)
+        outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM)
+        off_side = np.abs((sections.angles_rad - lateral_rad + np.pi) % (2 * np.pi) - np.pi)
+        excess[outer], _ = arc_excess(sections, rows[upper[outer]], rows[upper[outer] - lag],
+                                      off_side <= np.radians(LATERAL_ARC_DEG))
     over = np.flatnonzero(excess > CONTACT_EXCESS_MM)
     if not len(over):
         return None
