@@ -37,6 +37,13 @@ SIDE_SCALE = 0.04
 MIN_CONFIDENCE = 0.75
 
 
+def outer_side_angle(side: str | None) -> float | None:
+    """The calf frame's angle (radians, from +x towards +y) of the leg's outer (lateral)
+    side: x is the subject's right, so 0 for a right leg and pi for a left one; None
+    where the side is not known."""
+    return {"right": 0.0, "left": float(np.pi)}.get(side or "")
+
+
 @dataclass(frozen=True)
 class SideGuess:
     """``side`` "left" / "right" or None, ``confidence`` in [0.5, 1] or None, the

@@ -44,6 +44,7 @@ from app.geometry.anatomy.knee_middle import KNEE_WINDOW_MM, girth_slope, middle
 from app.geometry.anatomy.landmark_refusals import SCAN_STRAIGHT
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
+from app.geometry.anatomy.side import outer_side_angle
 from app.geometry.anatomy.thigh_contact import ABOVE_G_MM, CONTACT_FROM_E_MM, thigh_contact
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.sections import LimbGraph, PolarSections, tape_sections
@@ -224,8 +225,8 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     # G: the thigh beneath it is not in the scan, and the back's profile G was read on
     # passes it (a hand held towards the back moved G down to its fingertips), so neither
     # G nor F, halfway to it, is measured (app.geometry.anatomy.thigh_contact)
-    lateral = {"right": 0.0, "left": np.pi}.get(side or "")  # the frame's x is the subject's right
-    contact = thigh_contact(sections, np.searchsorted(planes, contact_z), e_mm + CONTACT_FROM_E_MM, g_mm, lateral)
+    contact = thigh_contact(sections, np.searchsorted(planes, contact_z), e_mm + CONTACT_FROM_E_MM, g_mm,
+                            outer_side_angle(side))
     if contact is not None:
         reason = contact.reason()
         return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),

@@ -68,18 +68,17 @@ class ThighContact:
                 "alone there - scan with the arms held away from the legs and the thigh bare")
 
 
-def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
-               arcs_judged: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """How far (mm) the most-moving arc of each section ``upper`` (m,) int lies outside
-    the section ``lower`` (m,) int below it, beyond the median move of the whole
-    outline, and that arc's angle (radians, the sections' ray angles): (m,) and (m,).
+def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray, arcs_judged: np.ndarray) -> np.ndarray:
+    """How far (mm) the most-moving judged arc of each section ``upper`` (m,) int lies
+    outside the section ``lower`` (m,) int below it, beyond the median move of the whole
+    outline: (m,).
 
     Both outlines are read from the lower section's centroid, to first order in the
     centroids' shift (a few mm against a thigh's ~80 mm radius): along the ray at angle
     t the upper outline lies r_up(t) + (c_up - c_low) . u(t) out, so its move is that
     minus r_low(t); the moves are averaged over arcs CONTACT_ARC_DEG wide.  Only the arcs
-    centred on the rays ``arcs_judged`` (a,) bool count (all when None).  NaN where either
-    section is missing or open over more than CONTACT_ARC_DEG.
+    centred on the rays ``arcs_judged`` (m, a) bool count.  NaN where either section is
+    missing or open over more than CONTACT_ARC_DEG, or no arc is judged.
     """
     angles = sections.angles_rad
     directions = np.column_stack([np.cos(angles), np.sin(angles)])  # (a, 2)
@@ -87,9 +86,8 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
     move = sections.radii_mm[upper] + shift @ directions.T - sections.radii_mm[lower]  # (m, a)
     rays = max(1, int(round(CONTACT_ARC_DEG / 360.0 * len(angles))))
     arcs = uniform_filter1d(np.nan_to_num(move), rays, axis=1, mode="wrap")
-    judged = np.where(np.ones(len(angles), bool) if arcs_judged is None else arcs_judged, arcs, -np.inf)
-    excess = judged.max(axis=1) - np.median(arcs, axis=1)
-    missing = ~(sections.valid[upper] & sections.valid[lower])
+    excess = np.where(arcs_judged, arcs, -np.inf).max(axis=1) - np.median(arcs, axis=1)
+    missing = ~(sections.valid[upper] & sections.valid[lower]) | ~arcs_judged.any(axis=1)
     if sections.largest_gap_deg is not None:
         # a section open over more than an arc (the scan's ragged top, a hole) is bridged
         # there, not skin: its move is no contact (chart_accuracy 8 11, leg 1's clouds
@@ -97,7 +95,7 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
         gaps = sections.largest_gap_deg
         missing |= (gaps[upper] > CONTACT_ARC_DEG) | (gaps[lower] > CONTACT_ARC_DEG)
     excess[missing] = np.nan
-    return excess, angles[np.argmax(judged, axis=1)]
+    return excess
 
 
 def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm: float,
@@ -120,15 +118,14 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     upper = np.arange(lag, len(rows))
     top = g_mm + float(TAPE_BAND_OFFSETS_MM.max())
     anywhere = (heights[upper] >= low_mm) & (heights[upper] <= top)
-    excess = np.full(len(upper), np.nan)
-    excess[anywhere], _ = arc_excess(sections, rows[upper[anywhere]], rows[upper[anywhere] - lag])
-    if lateral_rad is not None:
-        outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM)
-        off_side = np.abs((sections.angles_rad - lateral_rad + np.pi) % (2 * np.pi) - np.pi)
-        excess[outer], _ = arc_excess(sections, rows[upper[outer]], rows[upper[outer] - lag],
-                                      off_side <= np.radians(LATERAL_ARC_DEG))
+    outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM) & (lateral_rad is not None)
+    off_side = np.abs((sections.angles_rad - (lateral_rad or 0.0) + np.pi) % (2 * np.pi) - np.pi)
+    lateral = off_side <= np.radians(LATERAL_ARC_DEG)
+    judged = anywhere[:, None] | (outer[:, None] & lateral[None, :])  # (m, a)
+    searched = anywhere | outer
+    excess = arc_excess(sections, rows[upper[searched]], rows[upper[searched] - lag], judged[searched])
     over = np.flatnonzero(excess > CONTACT_EXCESS_MM)
     if not len(over):
         return None
-    first = over[0]
-    return ThighContact(float(heights[upper[first]] - CONTACT_RISE_MM), float(excess[first]))
+    first = upper[searched][over[0]]
+    return ThighContact(float(heights[first] - CONTACT_RISE_MM), float(excess[over[0]]))

@@ -23,6 +23,7 @@ from scipy import ndimage, sparse
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull
 
+from app.geometry.anatomy.side import outer_side_angle
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.garment.fabric import Fabric
 from app.geometry.spline.nurbs import NurbsSurface, evaluate_derivatives, evaluate_grid
@@ -160,9 +161,10 @@ def side_directions(side: str | None) -> tuple[dict[str, float], bool]:
     """Medial/lateral/anterior/posterior angles in the calf frame (x = subject's right,
     y = anterior).  Medial points to the body's midline: -x for a right leg, +x for a
     left leg.  Unknown side: a right leg is assumed (second value True)."""
-    assumed = side not in ("left", "right")
-    medial = 0.0 if side == "left" else np.pi
-    return {"medial": medial, "lateral": (medial + np.pi) % (2 * np.pi), "anterior": np.pi / 2, "posterior": 3 * np.pi / 2}, assumed
+    outer = outer_side_angle(side)
+    lateral = 0.0 if outer is None else outer
+    return {"medial": (lateral + np.pi) % (2 * np.pi), "lateral": lateral, "anterior": np.pi / 2,
+            "posterior": 3 * np.pi / 2}, outer is None
 
 
 def sector_name(angle: float, directions: dict[str, float]) -> str:

@@ -430,21 +430,27 @@ def test_a_second_fold_sized_bend_below_the_fold_makes_g_uncertain_by_as_far():
     assert crease.top_of_thigh.height_uncertainty_mm < 5.0
 
 
-def _with_hand(leg: np.ndarray, tip_mm: float, thick_mm: float = 30.0, length_mm: float = 185.0,
-               width_mm: float = 85.0) -> np.ndarray:
-    """``leg`` (n, 3) with a hand held flat against its side (+x) from ``tip_mm`` (its
-    fingertips, calf frame) up: an ellipsoid ``thick_mm`` x ``length_mm`` x ``width_mm``
-    touching the skin, sampled every ~2 mm; the skin under it is hidden, as a scanner
-    sees it."""
-    centre_z = tip_mm + length_mm / 2
-    skin_x = _radius(np.array([centre_z - D]))[0]
-    centre = np.array([skin_x + thick_mm / 2, _centre_y(np.array([centre_z - D]))[0], centre_z])
+def _hand_held(leg: np.ndarray, skin_x: float, centre_yz: tuple[float, float], rings: tuple[int, int],
+               thick_mm: float = 30.0, length_mm: float = 185.0, width_mm: float = 85.0) -> np.ndarray:
+    """``leg`` (n, 3) calf-frame mm with a hand held flat against its side (+x, the skin
+    at ``skin_x``), centred at ``centre_yz``: an ellipsoid ``thick_mm`` x ``width_mm`` x
+    ``length_mm`` (along z) sampled on ``rings`` (latitudes, longitudes); the skin under
+    it and its palm are hidden, as a scanner sees them."""
+    centre = np.array([skin_x + thick_mm / 2, *centre_yz])
     semi = np.array([thick_mm, width_mm, length_mm]) / 2
-    u, v = np.meshgrid(np.linspace(0.0, np.pi, 120), np.linspace(0.0, 2 * np.pi, 180), indexing="ij")
+    u, v = np.meshgrid(np.linspace(0.0, np.pi, rings[0]), np.linspace(0.0, 2 * np.pi, rings[1]), indexing="ij")
     hand = centre + semi * np.column_stack([(np.sin(u) * np.cos(v)).ravel(), (np.sin(u) * np.sin(v)).ravel(),
                                             np.cos(u).ravel()])
     hidden = (((leg - centre) / (semi + 2.0)) ** 2).sum(axis=1) < 1.0
     return np.vstack([leg[~hidden], hand[hand[:, 0] > skin_x + 2.0]])
+
+
+def _with_hand(leg: np.ndarray, tip_mm: float, length_mm: float = 185.0) -> np.ndarray:
+    """The leg of revolution ``leg`` with a hand (:func:`_hand_held`, sampled every ~2 mm)
+    from ``tip_mm`` (its fingertips, calf frame) up."""
+    centre_z = tip_mm + length_mm / 2
+    skin_x = _radius(np.array([centre_z - D]))[0]
+    return _hand_held(leg, skin_x, (_centre_y(np.array([centre_z - D]))[0], centre_z), (120, 180), length_mm=length_mm)
 
 
 def test_a_hand_against_the_thigh_leaves_f_and_g_unmeasured():
@@ -479,15 +485,10 @@ def test_a_hand_against_a_real_thigh_is_found_and_its_bare_thigh_is_not():
     bare = thigh_measures(local, None, d, False)
     assert bare.top_of_thigh.girth_mm is not None
     tip = bare.mid_thigh.height_mm + 30.0
-    length, thick = 185.0, 30.0
-    near = np.abs(local[:, 2] - (tip + length / 2)) < 3.0
+    centre_z = tip + 185.0 / 2
+    near = np.abs(local[:, 2] - centre_z) < 3.0
     side_x = local[near, 0].max()  # the right leg's outer side (+x, the subject's right)
-    centre = np.array([side_x + thick / 2, local[near, 1].mean(), tip + length / 2])
-    semi = np.array([thick, 85.0, length]) / 2
-    u, v = np.meshgrid(np.linspace(0.0, np.pi, 80), np.linspace(0.0, 2 * np.pi, 120), indexing="ij")
-    hand = centre + semi * np.column_stack([(np.sin(u) * np.cos(v)).ravel(), (np.sin(u) * np.sin(v)).ravel(),
-                                            np.cos(u).ravel()])
-    hidden = (((local - centre) / (semi + 2.0)) ** 2).sum(axis=1) < 1.0
-    held = thigh_measures(np.vstack([local[~hidden], hand[hand[:, 0] > side_x + 2.0]]), None, d, False, side="right")
+    held = thigh_measures(_hand_held(local, side_x, (local[near, 1].mean(), centre_z), (80, 120)), None, d, False,
+                          side="right")
     assert held.top_of_thigh.girth_mm is None and "lies against the thigh" in held.top_of_thigh.reason
     assert held.mid_thigh.girth_mm is None and held.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)
