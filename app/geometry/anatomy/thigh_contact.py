@@ -49,6 +49,18 @@ CONTACT_FROM_E_MM = 50.0
 #: moved it 16 mm down)
 ABOVE_G_MM = 3 * CONTACT_RISE_MM
 LATERAL_ARC_DEG = 60.0
+#: over G, where the scan ends, two outlines whose centroids lie further apart than this
+#: are not compared (mm).  The move is read to first order in the centroids' shift s,
+#: which errs by about s^2 / 2r: 3.3 mm at 20 mm on a thin thigh's 60 mm radius, a third
+#: of CONTACT_EXCESS_MM.  A standing thigh's axis (tilted under 15 degrees,
+#: thigh.MAX_THIGH_TILT_DEG) shifts it by 20 tan 15 = 5.4 mm over CONTACT_RISE_MM, and a
+#: hand's bulk on the generated legs' clouds by at most 17 mm (16.9 on 42 thighs of
+#: benchmarks/hand_on_thigh.py 8 21; 6.1 at the fingertips, where those hands were found).
+#: Further apart, one of the two is not the thigh's whole outline but a piece of the
+#: scan's ragged top cut off by the plane (a patch 10 mm across, 90-115 mm from the
+#: thigh's centroid: chart_accuracy 8 5 leg 3's clouds and hand_on_thigh 8 21 leg 2's
+#: G+20 read "contacts" of 45-92 mm there)
+MAX_CENTROID_SHIFT_MM = CONTACT_RISE_MM
 
 
 @dataclass(frozen=True)
@@ -109,7 +121,8 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     Up to G (``g_mm``) plus half a tape's width every arc is judged; above it, up to
     ABOVE_G_MM over G, only the arcs within LATERAL_ARC_DEG of the leg's outer side
     (``lateral_rad``, the calf frame's angle of it; None where the side is not known:
-    then none), where a hand hangs and the buttock does not bulge.
+    then none), where a hand hangs and the buttock does not bulge; there two outlines
+    whose centroids lie more than MAX_CENTROID_SHIFT_MM apart are not compared.
     """
     heights = sections.heights_mm[rows]
     if len(heights) < 2:
@@ -123,7 +136,15 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     lateral = off_side <= np.radians(LATERAL_ARC_DEG)
     judged = anywhere[:, None] | (outer[:, None] & lateral[None, :])  # (m, a)
     searched = anywhere | outer
-    excess = arc_excess(sections, rows[upper[searched]], rows[upper[searched] - lag], judged[searched])
+    upper_rows, lower_rows = rows[upper[searched]], rows[upper[searched] - lag]
+    excess = arc_excess(sections, upper_rows, lower_rows, judged[searched])
+    # over G the scan ends: an outline far from the one below it is a piece of the
+    # scan's ragged top, not compared.  Below G the thigh runs on through every plane
+    # (its fold lies above), so such an outline is the plane's cut through something
+    # beside the thigh (a hand apart from a sparse cloud's thigh): judged, it moves out
+    # by far more than CONTACT_EXCESS_MM
+    shift = np.linalg.norm(sections.centroids_mm[upper_rows] - sections.centroids_mm[lower_rows], axis=1)
+    excess[outer[searched] & (shift > MAX_CENTROID_SHIFT_MM)] = np.nan
     over = np.flatnonzero(excess > CONTACT_EXCESS_MM)
     if not len(over):
         return None
