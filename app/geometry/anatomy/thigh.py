@@ -29,7 +29,8 @@ thigh cut free of the shank by the placement) has no thigh here, and says so.
 
 Something lying against the thigh below G (a hand hanging at the side) leaves the thigh
 beneath it out of the scan: G, and F halfway to it, are then not measured
-(:mod:`app.geometry.anatomy.thigh_contact`).
+(:mod:`app.geometry.anatomy.thigh_contact`); where it hides the fold itself, F and G
+give it as their reason.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ from app.geometry.anatomy.landmark_refusals import SCAN_STRAIGHT
 from app.geometry.anatomy.level_points import GIRTH_TOLERANCE_MM, LevelPoint, girth_spread, level_on_section, read_across_tape
 from app.geometry.anatomy.level_runs import SLOPE_HALF_MM, STEP_MM, gaps_filled
 from app.geometry.anatomy.side import outer_side_angle
-from app.geometry.anatomy.thigh_contact import ABOVE_G_MM, CONTACT_FROM_E_MM, thigh_contact
+from app.geometry.anatomy.thigh_contact import ABOVE_G_MM, CONTACT_FROM_E_MM, ThighContact, thigh_contact
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.sections import LimbGraph, PolarSections, tape_sections
 
@@ -65,6 +66,11 @@ THIGH_BACK_ABOVE_E_MM = 100.0
 #: reads a thigh 1/cos 15 = 3.5% long
 THIGH_AXIS_FROM_D_MM = 80.0
 MAX_THIGH_TILT_DEG = 15.0
+#: the farthest a gluteal fold lies above E, mm: ANSUR II's crotch height less its
+#: mid-patella knee height is 257-456 mm over 6,068 adults (the fold lies about at crotch
+#: height).  Where no fold is found, something against the thigh is looked for at the
+#: leg's outer side up to ABOVE_G_MM over that (a hand hiding the fold: app.geometry.anatomy.thigh_contact)
+FOLD_ABOVE_E_MAX_MM = 460.0
 
 
 @dataclass(frozen=True)
@@ -167,6 +173,20 @@ def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray
         f"{failure.reason.value}). {SCAN_STRAIGHT}")
 
 
+def _contact_without_fold(points: np.ndarray, faces: np.ndarray | None, edges: LimbGraph | None, d_mm: float,
+                          e_mm: float, top_mm: float, side: str | None) -> ThighContact | None:
+    """Something against a thigh whose gluteal fold was not found: every arc judged up to
+    where the fold is first looked for (THIGH_BACK_ABOVE_E_MM over E, below any fold),
+    then the arcs at the leg's outer side up to ABOVE_G_MM over the highest a fold lies
+    (FOLD_ABOVE_E_MAX_MM over E) or the scan's top (app.geometry.anatomy.thigh_contact).
+    It changes only the reason F and G give: they are not measured either way."""
+    reach = min(e_mm + FOLD_ABOVE_E_MAX_MM + ABOVE_G_MM, top_mm - STEP_MM)
+    planes = np.arange(d_mm, reach, PROFILE_STEP_MM)
+    sections = tape_sections(points, faces, planes, edges)
+    return thigh_contact(sections, np.arange(len(planes)), e_mm + CONTACT_FROM_E_MM, e_mm + THIGH_BACK_ABOVE_E_MM,
+                         outer_side_angle(side), outer_to_mm=reach)
+
+
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,
                    edges: LimbGraph | None = None, side: str | None = None) -> ThighMeasures:
     """E, F, G of the module docstring (mm), or why not; ``edges``: a sparse cloud's
@@ -202,8 +222,14 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     rear = posterior_profile(points, faces, heights, edges)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
     if fold.height_mm is None:
-        return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
-                             warnings=warnings)
+        # a hand against the thigh hides the fold from the back's profile as often as not
+        # (11 of 57 hands covering G, benchmarks/hand_on_thigh.py 8 21 and 12 22): say
+        # so, and what to do, rather than that no fold was found
+        contact = _contact_without_fold(points, faces, edges, d_mm, e_mm, top, side)
+        reason = fold.reason if contact is None else contact.reason()
+        said = () if contact is None else (f"cF and cG not measured: {reason}",)
+        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+                             warnings=warnings + said)
     g_mm = fold.height_mm
     f_mm = (e_mm + g_mm) / 2
     profile_z = np.unique(np.r_[np.arange(d_mm, g_mm, PROFILE_STEP_MM), g_mm])  # D ... G, G included

@@ -111,7 +111,7 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray, ar
 
 
 def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm: float,
-                  lateral_rad: float | None) -> ThighContact | None:
+                  lateral_rad: float | None, outer_to_mm: float | None = None) -> ThighContact | None:
     """The lowest height (mm) from ``low_mm`` up where something starts to lie against
     the thigh (module docstring): the first of ``sections``' ``rows`` (k,) int, evenly
     spaced and ascending, whose outline moves out by more than CONTACT_EXCESS_MM over an
@@ -119,7 +119,7 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     have begun); None where nothing does.
 
     Up to G (``g_mm``) plus half a tape's width every arc is judged; above it, up to
-    ABOVE_G_MM over G, only the arcs within LATERAL_ARC_DEG of the leg's outer side
+    ``outer_to_mm`` (ABOVE_G_MM over G unless given), only the arcs within LATERAL_ARC_DEG of the leg's outer side
     (``lateral_rad``, the calf frame's angle of it; None where the side is not known:
     then none), where a hand hangs and the buttock does not bulge; there two outlines
     whose centroids lie more than MAX_CENTROID_SHIFT_MM apart are not compared.
@@ -131,7 +131,8 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     upper = np.arange(lag, len(rows))
     top = g_mm + float(TAPE_BAND_OFFSETS_MM.max())
     anywhere = (heights[upper] >= low_mm) & (heights[upper] <= top)
-    outer = (heights[upper] > top) & (heights[upper] <= g_mm + ABOVE_G_MM) & (lateral_rad is not None)
+    outer_to = g_mm + ABOVE_G_MM if outer_to_mm is None else outer_to_mm
+    outer = (heights[upper] > top) & (heights[upper] <= outer_to) & (lateral_rad is not None)
     off_side = np.abs((sections.angles_rad - (lateral_rad or 0.0) + np.pi) % (2 * np.pi) - np.pi)
     lateral = off_side <= np.radians(LATERAL_ARC_DEG)
     judged = anywhere[:, None] | (outer[:, None] & lateral[None, :])  # (m, a)

@@ -472,6 +472,28 @@ def test_a_hand_against_the_thigh_leaves_f_and_g_unmeasured():
         assert held.mid_thigh.girth_mm is None and held.mid_thigh.reason == held.top_of_thigh.reason
 
 
+def test_a_hand_on_a_thigh_whose_fold_is_not_found_is_named_as_the_reason():
+    """A scan that stops 10 mm under the gluteal fold, so no fold is found: bare, F and G
+    say so; with a hand against it (its fingertips 110 or 180 mm over E), they say that
+    something lies against the thigh from its fingertips, and what to do - a hand hides the
+    fold from the back's profile as often as not (11 of 57 hands covering G in
+    benchmarks/hand_on_thigh.py read "no gluteal fold found"), and the way to a measured G
+    is the same either way: scan again with the arms held away."""
+    leg = _leg(top=FOLD - 10.0)
+    bare = thigh_measures(leg, None, D, knee_bent=False, side="right")
+    assert bare.top_of_thigh.height_mm is None and "stops below the gluteal fold" in bare.top_of_thigh.reason
+    assert not any("lies against the thigh" in w for w in bare.warnings)
+    e_mm = bare.knee.height_mm
+    for tip in (e_mm + 110.0, e_mm + 180.0):
+        held = thigh_measures(_with_hand(leg, tip), None, D, knee_bent=False, side="right")
+        assert held.top_of_thigh.height_mm is None and "lies against the thigh" in held.top_of_thigh.reason
+        assert held.mid_thigh.reason == held.top_of_thigh.reason
+        start = float(re.search(r"from (\d+) mm above", held.top_of_thigh.reason).group(1))
+        assert tip - 26.0 <= start <= tip + 5.0
+        assert any("lies against the thigh" in w for w in held.warnings)
+        assert held.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)
+
+
 def test_a_hand_against_a_real_thigh_is_found_and_its_bare_thigh_is_not():
     """The BodyParts3D leg (its vertices, a cloud) with a hand against the side of its thigh
     30 mm above F: F and G are not measured, and say why; without the hand they are (the
