@@ -47,6 +47,9 @@ from benchmarks.provenance import environment, environment_line  # noqa: E402
 RESULTS = Path(__file__).resolve().parent / "results"
 #: a point measured with a hand above its tape: right within this of the bare cloud's (mm)
 TOLERANCE_MM = 3.0
+#: how a record says that F and G were not measured for something against the thigh
+#: (app.geometry.anatomy.thigh_contact.ThighContact.reason: an arc, a garment's hem)
+CONTACT_SAID = ("lies against the thigh", "the thigh is covered")
 #: where the fingertips are: (name, the point, mm from it, does the hand cover G)
 HANDS = (("F-40", "F", -40.0, True), ("F+30", "F", 30.0, True), ("G-60", "G", -60.0, True),
          ("G+20", "G", 20.0, False), ("G+50", "G", 50.0, False))
@@ -69,15 +72,16 @@ def _xyz(points: np.ndarray) -> bytes:
 
 
 def _thigh(record: dict) -> dict:
-    """cF and cG of a record: value (mm) or "contact" / "none" (not measured, for the
-    contact or another reason) or the refusal."""
+    """cF and cG of a record: value (mm) or "contact" / "none" (not measured, for
+    something against or round the thigh - a hand, a garment - or another reason) or the
+    refusal."""
     if "refused" in record:
         return {"refused": record["refused"]}
     out = {}
     for name in ("cF", "cG"):
         point = record["chart"][name]
         out[name] = (round(point["value_mm"], 2) if point.get("value_mm") is not None else
-                     "contact" if "lies against the thigh" in (point.get("reason") or "") else "none")
+                     "contact" if any(said in (point.get("reason") or "") for said in CONTACT_SAID) else "none")
     return out
 
 

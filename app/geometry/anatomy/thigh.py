@@ -177,14 +177,17 @@ def _contact_without_fold(points: np.ndarray, faces: np.ndarray | None, edges: L
                           e_mm: float, top_mm: float, side: str | None) -> ThighContact | None:
     """Something against a thigh whose gluteal fold was not found: every arc judged up to
     where the fold is first looked for (THIGH_BACK_ABOVE_E_MM over E, below any fold),
-    then the arcs at the leg's outer side up to ABOVE_G_MM over the highest a fold lies
-    (FOLD_ABOVE_E_MAX_MM over E) or the scan's top (app.geometry.anatomy.thigh_contact).
-    It changes only the reason F and G give: they are not measured either way."""
+    then the arcs at the leg's outer side, and a garment's hem all round, up to
+    ABOVE_G_MM over the highest a fold lies (FOLD_ABOVE_E_MAX_MM over E) or the scan's
+    top (app.geometry.anatomy.thigh_contact; a loose garment hides the fold as a hand
+    does, and bare thighs' median moves stayed under 5 mm there: the three real legs to
+    their tops, 4.9).  It changes only the reason F and G give: they are not measured
+    either way."""
     reach = min(e_mm + FOLD_ABOVE_E_MAX_MM + ABOVE_G_MM, top_mm - STEP_MM)
     planes = np.arange(d_mm, reach, PROFILE_STEP_MM)
     sections = tape_sections(points, faces, planes, edges)
     return thigh_contact(sections, np.arange(len(planes)), e_mm + CONTACT_FROM_E_MM, e_mm + THIGH_BACK_ABOVE_E_MM,
-                         outer_side_angle(side), outer_to_mm=reach)
+                         outer_side_angle(side), outer_to_mm=reach, hem_to_mm=reach)
 
 
 def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, knee_bent: bool,

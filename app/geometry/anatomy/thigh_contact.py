@@ -16,6 +16,10 @@ thighs as a noisy cloud at 3 heights; read round it, cF came out 28-30 mm long a
 12-35).  CONTACT_EXCESS_MM, 10 mm, lies between the two.  The thigh under the hand is not
 in the scan, so the points from where the rise starts up are not measured, and say why.
 
+A garment's hem - a shorts or trouser leg hanging loose round the thigh - moves the whole
+outline out at once, which a rule read beyond the outline's median cannot see: there the
+median move itself is judged against a bare thigh's (ALL_ROUND_MOVE_MM).
+
 Frame: the calf frame (mm; z up the leg).  Arrays: heights (k,) ascending, evenly spaced.
 """
 
@@ -61,18 +65,43 @@ LATERAL_ARC_DEG = 60.0
 #: thigh's centroid: chart_accuracy 8 5 leg 3's clouds and hand_on_thigh 8 21 leg 2's
 #: G+20 read "contacts" of 45-92 mm there)
 MAX_CENTROID_SHIFT_MM = CONTACT_RISE_MM
+#: the whole outline moving out by more than this over CONTACT_RISE_MM of height is a
+#: garment's hem: a trouser or shorts leg hanging loose round the thigh (mm).  A bare
+#: thigh's median move is its radius's rise, at most 5.0 mm over 20 mm (76 thighs of
+#: benchmarks/hand_on_thigh.py 8 21 and 12 22, meshes and clouds, E + 50 mm to G); a hem
+#: adds the garment's offset from the skin to that all round, which the arc rule, read
+#: beyond the median, cannot see.  7.5 mm is half as much again as the bare thighs'
+#: largest: a garment hanging 5 mm or more off the skin shows.  Read round, the tape
+#: reads the garment, and the back's profile turns at the hem as at a fold (a loose hem
+#: 40 mm over F put G there: cF 46 and cG 32 mm short, unwarned)
+ALL_ROUND_MOVE_MM = 7.5
+#: a hem is looked for up to this far over G (mm): the back's profile turns at a loose
+#: hem as at a fold, and G read there lay 10-11 mm under the hem (benchmarks/
+#: garment_on_thigh.py), whose whole rise shows within CONTACT_RISE_MM above it.  Bare
+#: thighs' median moves stayed under 5.1 mm up to 45 mm over G (the buttock's back is a
+#: minority of the outline).  A hem 25-40 mm over a G read right is then said too: the
+#: thigh must be bare to its fold, and a fold a hem lies that near to is not sure
+HEM_OVER_G_MM = 2 * CONTACT_RISE_MM
 
 
 @dataclass(frozen=True)
 class ThighContact:
     """Where something starts to lie against the thigh (height, calf frame, mm) and how
-    far its arc moved out beyond the outline's median move there (mm)."""
+    far its arc moved out beyond the outline's median move there (mm); ``all_round``:
+    the whole outline moved out that far (a garment's hem), not an arc of it."""
 
     start_mm: float
     excess_mm: float
+    all_round: bool = False
 
     def reason(self) -> str:
         """Why the points from :attr:`start_mm` up are not measured, for the person who scanned."""
+        if self.all_round:
+            return (f"the thigh is covered from {self.start_mm:.0f} mm above the ankle point B up (its whole outline "
+                    f"moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, where a bare "
+                    f"thigh's rises by at most {ALL_ROUND_MOVE_MM:.0f}): the hem of a garment - a shorts or trouser leg - "
+                    "hanging round the thigh; the tape would read the garment and not the skin - scan with the thigh "
+                    "bare (the garment rolled up above the gluteal fold or taken off)")
         return (f"something lies against the thigh from {self.start_mm:.0f} mm above the ankle point B up (an arc of "
                 f"its outline moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, where a "
                 f"bare thigh's stay under {CONTACT_EXCESS_MM:.0f}): a hand or forearm held against the leg, or clothing or "
@@ -80,10 +109,11 @@ class ThighContact:
                 "alone there - scan with the arms held away from the legs and the thigh bare")
 
 
-def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray, arcs_judged: np.ndarray) -> np.ndarray:
+def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
+               arcs_judged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """How far (mm) the most-moving judged arc of each section ``upper`` (m,) int lies
     outside the section ``lower`` (m,) int below it, beyond the median move of the whole
-    outline: (m,).
+    outline, and that median move (mm): two (m,).
 
     Both outlines are read from the lower section's centroid, to first order in the
     centroids' shift (a few mm against a thigh's ~80 mm radius): along the ray at angle
@@ -98,20 +128,32 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray, ar
     move = sections.radii_mm[upper] + shift @ directions.T - sections.radii_mm[lower]  # (m, a)
     rays = max(1, int(round(CONTACT_ARC_DEG / 360.0 * len(angles))))
     arcs = uniform_filter1d(np.nan_to_num(move), rays, axis=1, mode="wrap")
-    excess = np.where(arcs_judged, arcs, -np.inf).max(axis=1) - np.median(arcs, axis=1)
-    missing = ~(sections.valid[upper] & sections.valid[lower]) | ~arcs_judged.any(axis=1)
+    median = np.median(arcs, axis=1)
+    excess = np.where(arcs_judged, arcs, -np.inf).max(axis=1) - median
+    missing = ~(sections.valid[upper] & sections.valid[lower])
     if sections.largest_gap_deg is not None:
         # a section open over more than an arc (the scan's ragged top, a hole) is bridged
         # there, not skin: its move is no contact (chart_accuracy 8 11, leg 1's clouds
         # read 12-122 mm at the hip's cut with 25-80 degrees open)
         gaps = sections.largest_gap_deg
         missing |= (gaps[upper] > CONTACT_ARC_DEG) | (gaps[lower] > CONTACT_ARC_DEG)
-    excess[missing] = np.nan
-    return excess
+    median[missing] = np.nan
+    excess[missing | ~arcs_judged.any(axis=1)] = np.nan
+    return excess, median
+
+
+def _holds(sections: PolarSections, rows: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """Whether each outline of ``rows`` (m,) int holds the point ``offsets`` (m, 2) mm
+    from its centroid: the point lies within the outline's radius along its ray."""
+    angles = sections.angles_rad
+    step = float(angles[1] - angles[0]) if len(angles) > 1 else 2 * np.pi
+    ray = np.rint((np.arctan2(offsets[:, 1], offsets[:, 0]) - angles[0]) / step).astype(np.int64) % len(angles)
+    return np.linalg.norm(offsets, axis=1) < sections.radii_mm[rows, ray]
 
 
 def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm: float,
-                  lateral_rad: float | None, outer_to_mm: float | None = None) -> ThighContact | None:
+                  lateral_rad: float | None, outer_to_mm: float | None = None,
+                  hem_to_mm: float | None = None) -> ThighContact | None:
     """The lowest height (mm) from ``low_mm`` up where something starts to lie against
     the thigh (module docstring): the first of ``sections``' ``rows`` (k,) int, evenly
     spaced and ascending, whose outline moves out by more than CONTACT_EXCESS_MM over an
@@ -122,7 +164,9 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     ``outer_to_mm`` (ABOVE_G_MM over G unless given), only the arcs within LATERAL_ARC_DEG of the leg's outer side
     (``lateral_rad``, the calf frame's angle of it; None where the side is not known:
     then none), where a hand hangs and the buttock does not bulge; there two outlines
-    whose centroids lie more than MAX_CENTROID_SHIFT_MM apart are not compared.
+    whose centroids lie more than MAX_CENTROID_SHIFT_MM apart are not compared.  A
+    garment's hem - the whole outline moving out by more than ALL_ROUND_MOVE_MM - is
+    looked for from ``low_mm`` up to ``hem_to_mm`` (HEM_OVER_G_MM over G unless given).
     """
     heights = sections.heights_mm[rows]
     if len(heights) < 2:
@@ -136,18 +180,28 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     off_side = np.abs((sections.angles_rad - (lateral_rad or 0.0) + np.pi) % (2 * np.pi) - np.pi)
     lateral = off_side <= np.radians(LATERAL_ARC_DEG)
     judged = anywhere[:, None] | (outer[:, None] & lateral[None, :])  # (m, a)
-    searched = anywhere | outer
+    hem_to = g_mm + HEM_OVER_G_MM if hem_to_mm is None else hem_to_mm
+    hem_reach = (heights[upper] >= low_mm) & (heights[upper] <= hem_to)
+    searched = anywhere | outer | hem_reach
     upper_rows, lower_rows = rows[upper[searched]], rows[upper[searched] - lag]
-    excess = arc_excess(sections, upper_rows, lower_rows, judged[searched])
+    excess, median = arc_excess(sections, upper_rows, lower_rows, judged[searched])
     # over G the scan ends: an outline far from the one below it is a piece of the
     # scan's ragged top, not compared.  Below G the thigh runs on through every plane
     # (its fold lies above), so such an outline is the plane's cut through something
     # beside the thigh (a hand apart from a sparse cloud's thigh): judged, it moves out
     # by far more than CONTACT_EXCESS_MM
-    shift = np.linalg.norm(sections.centroids_mm[upper_rows] - sections.centroids_mm[lower_rows], axis=1)
-    excess[outer[searched] & (shift > MAX_CENTROID_SHIFT_MM)] = np.nan
-    over = np.flatnonzero(excess > CONTACT_EXCESS_MM)
+    shift = sections.centroids_mm[lower_rows] - sections.centroids_mm[upper_rows]  # (m, 2)
+    over_g = heights[upper[searched]] > top
+    excess[over_g & (np.linalg.norm(shift, axis=1) > MAX_CENTROID_SHIFT_MM)] = np.nan
+    # ... and its median move not where the upper outline does not even hold the lower's
+    # centroid (a loose garment's tube, hanging from the buttock, may lie 20-30 mm off the
+    # thigh's axis and still hold it; the top's sliver does not)
+    median[over_g & ~_holds(sections, upper_rows, shift)] = np.nan
+    hem = hem_reach[searched] & (median > ALL_ROUND_MOVE_MM)
+    over = np.flatnonzero((excess > CONTACT_EXCESS_MM) | hem)
     if not len(over):
         return None
-    first = upper[searched][over[0]]
-    return ThighContact(float(heights[first] - CONTACT_RISE_MM), float(excess[over[0]]))
+    start = float(heights[upper[searched][over[0]]] - CONTACT_RISE_MM)
+    if excess[over[0]] > CONTACT_EXCESS_MM:
+        return ThighContact(start, float(excess[over[0]]))
+    return ThighContact(start, float(median[over[0]]), all_round=True)

@@ -494,6 +494,39 @@ def test_a_hand_on_a_thigh_whose_fold_is_not_found_is_named_as_the_reason():
         assert held.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)
 
 
+def _in_loose_garment(leg: np.ndarray, hem_mm: float, offset_mm: float) -> np.ndarray:
+    """``leg`` (n, 3) calf-frame mm with its skin from ``hem_mm`` up hidden under a loose
+    tube of fabric round the frame's axis, ``offset_mm`` out from the widest skin above
+    the hem (a shorts leg hangs straight down from the hip), sampled every 1 degree at
+    the leg's heights; the hem itself is left open (its ring's width is the offset)."""
+    above = leg[:, 2] >= hem_mm
+    radius = float(np.hypot(leg[above, 0], leg[above, 1]).max()) + offset_mm
+    heights, angles = np.meshgrid(np.unique(leg[above, 2]), np.radians(np.arange(0.0, 360.0, 1.0)), indexing="ij")
+    tube = np.column_stack([(radius * np.cos(angles)).ravel(), (radius * np.sin(angles)).ravel(), heights.ravel()])
+    return np.vstack([leg[~above], tube])
+
+
+@pytest.mark.parametrize("offset_mm", [5.0, 10.0, 20.0])
+def test_a_loose_garment_round_the_thigh_leaves_f_and_g_unmeasured(offset_mm):
+    """Shorts hanging loose round the thigh from 30 mm under F, 40 mm over F, 40 mm under
+    G or 20 mm over G: the tape would read the fabric, and the back's profile runs
+    straight down the tube past the fold, so F and G are not measured and say that the
+    thigh is covered, from the hem (app.geometry.anatomy.thigh_contact's hem rule: the
+    whole outline moves out at once, which the arc rule cannot see).  Read round the
+    garment, G came out at the hem and cF and cG 32-46 mm short on a generated leg
+    (benchmarks/garment_on_thigh.py); the knee reads as bare."""
+    bare = thigh_measures(_leg(), None, D, knee_bent=False)
+    f_mm, g_mm = bare.mid_thigh.height_mm, bare.top_of_thigh.height_mm
+    for hem in (f_mm - 30.0, f_mm + 40.0, g_mm - 40.0, g_mm + 20.0):
+        worn = thigh_measures(_in_loose_garment(_leg(), hem, offset_mm), None, D, knee_bent=False)
+        assert worn.top_of_thigh.girth_mm is None and worn.mid_thigh.girth_mm is None
+        assert "the thigh is covered" in worn.top_of_thigh.reason and "garment" in worn.top_of_thigh.reason
+        start = float(re.search(r"from (\d+) mm above", worn.top_of_thigh.reason).group(1))
+        assert hem - 26.0 <= start <= hem + 5.0
+        assert any("the thigh is covered" in w for w in worn.warnings)
+        assert worn.knee.girth_mm == pytest.approx(bare.knee.girth_mm, abs=0.5)
+
+
 def test_a_hand_against_a_real_thigh_is_found_and_its_bare_thigh_is_not():
     """The BodyParts3D leg (its vertices, a cloud) with a hand against the side of its thigh
     30 mm above F: F and G are not measured, and say why; without the hand they are (the

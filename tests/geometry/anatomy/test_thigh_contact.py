@@ -1,6 +1,7 @@
 """Something against the thigh (app.geometry.anatomy.thigh_contact) read on the sections
 of a thigh of revolution: a hand over G at the leg's outer side is found, a shelf of skin
-at the scan's ragged top is not (F and G with a hand under them: test_thigh.py)."""
+at the scan's ragged top is not, a garment's hem is, all round (F and G with a hand or a
+garment on the thigh: test_thigh.py)."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ import pytest
 from app.geometry.anatomy.side import outer_side_angle
 from app.geometry.anatomy.thigh_contact import thigh_contact
 from app.geometry.sections import tape_sections
-from tests.geometry.anatomy.test_thigh import FOLD, D, _hand_held, _leg, _radius
+from tests.geometry.anatomy.test_thigh import FOLD, D, _hand_held, _in_loose_garment, _leg, _radius
 
 G = D + FOLD  # the gluteal fold, calf frame mm
 CUT = 40.0  # the scan's top, mm over G
@@ -66,3 +67,19 @@ def test_a_hand_over_g_at_the_outer_side_is_still_found_under_a_ragged_top():
     assert contact is not None
     assert tip - 26.0 <= contact.start_mm <= tip + 5.0
     assert contact.excess_mm > 10.0
+
+
+@pytest.mark.parametrize("offset_mm", [5.0, 10.0, 20.0])
+def test_a_garments_hem_is_found_all_round_and_a_bare_thighs_rise_is_not(offset_mm):
+    """A loose tube of fabric from 120 mm under G up: the whole outline moves out by the
+    offset and the thigh's own rise at once, so the arc rule (read beyond the median)
+    sees nothing, and the hem rule (the median itself over ALL_ROUND_MOVE_MM) finds it,
+    from the hem less the 20 mm rise it is read over.  The bare thigh, its radius rising
+    0.2 mm per mm (4 mm over 20 mm, as steep as the generated legs' steepest), is not."""
+    hem = G - 120.0
+    contact = _contact(_in_loose_garment(_straight_thigh(), hem, offset_mm))
+    assert contact is not None and contact.all_round
+    assert hem - 21.0 <= contact.start_mm <= hem + 1.0
+    assert contact.excess_mm >= offset_mm
+    assert "the thigh is covered" in contact.reason()
+    assert _contact(_straight_thigh()) is None
