@@ -68,8 +68,8 @@ THIGH_AXIS_FROM_D_MM = 80.0
 MAX_THIGH_TILT_DEG = 15.0
 #: the farthest a gluteal fold lies above E, mm: ANSUR II's crotch height less its
 #: mid-patella knee height is 257-456 mm over 6,068 adults (the fold lies about at crotch
-#: height).  Where no fold is found, something against the thigh is looked for at the
-#: leg's outer side up to ABOVE_G_MM over that (a hand hiding the fold: app.geometry.anatomy.thigh_contact)
+#: height).  Where no fold is found, a hand at the leg's outer side, or a garment's hem,
+#: is looked for up to ABOVE_G_MM over that (app.geometry.anatomy.thigh_contact)
 FOLD_ABOVE_E_MAX_MM = 460.0
 
 
@@ -173,6 +173,13 @@ def bent_knee_refusal(failure: FitFailure, points: np.ndarray, faces: np.ndarray
         f"{failure.reason.value}). {SCAN_STRAIGHT}")
 
 
+def _covered(knee: LevelPoint, contact: ThighContact, warnings: tuple[str, ...]) -> ThighMeasures:
+    """E as read, and F and G not measured for what lies against the thigh (said in the warnings too)."""
+    reason = contact.reason()
+    return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
+                         warnings=warnings + (f"cF and cG not measured: {reason}",))
+
+
 def _contact_without_fold(points: np.ndarray, faces: np.ndarray | None, edges: LimbGraph | None, d_mm: float,
                           e_mm: float, top_mm: float, side: str | None) -> ThighContact | None:
     """Something against a thigh whose gluteal fold was not found: every arc judged up to
@@ -225,14 +232,14 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     rear = posterior_profile(points, faces, heights, edges)
     fold = gluteal_fold(heights, rear, e_mm + THIGH_BACK_ABOVE_E_MM, top)
     if fold.height_mm is None:
-        # a hand against the thigh hides the fold from the back's profile as often as not
-        # (11 of 57 hands covering G, benchmarks/hand_on_thigh.py 8 21 and 12 22): say
-        # so, and what to do, rather than that no fold was found
+        # a hand or a loose garment on the thigh can hide the fold from the back's
+        # profile (a hand did in 11 of 57 hands covering G, benchmarks/hand_on_thigh.py
+        # 8 21 and 12 22): say so, and what to do, rather than that no fold was found
         contact = _contact_without_fold(points, faces, edges, d_mm, e_mm, top, side)
-        reason = fold.reason if contact is None else contact.reason()
-        said = () if contact is None else (f"cF and cG not measured: {reason}",)
-        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
-                             warnings=warnings + said)
+        if contact is not None:
+            return _covered(knee, contact, warnings)
+        return ThighMeasures(knee, LevelPoint("F", None, None, fold.reason), LevelPoint("G", None, None, fold.reason),
+                             warnings=warnings)
     g_mm = fold.height_mm
     f_mm = (e_mm + g_mm) / 2
     profile_z = np.unique(np.r_[np.arange(d_mm, g_mm, PROFILE_STEP_MM), g_mm])  # D ... G, G included
@@ -257,9 +264,7 @@ def thigh_measures(points: np.ndarray, faces: np.ndarray | None, d_mm: float, kn
     contact = thigh_contact(sections, np.searchsorted(planes, contact_z), e_mm + CONTACT_FROM_E_MM, g_mm,
                             outer_side_angle(side))
     if contact is not None:
-        reason = contact.reason()
-        return ThighMeasures(knee, LevelPoint("F", None, None, reason), LevelPoint("G", None, None, reason),
-                             warnings=warnings + (f"cF and cG not measured: {reason}",))
+        return _covered(knee, contact, warnings)
     mid_thigh, top_of_thigh = read_across_tape(
         (level_on_section("F", sections, planes_girth, int(np.searchsorted(planes, f_mm))), top_of_thigh), points, faces, edges)
     # a plane without a closed section: read between its neighbours
