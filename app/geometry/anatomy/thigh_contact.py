@@ -148,8 +148,10 @@ def _holds(sections: PolarSections, rows: np.ndarray, offsets: np.ndarray) -> np
     from its centroid: the point lies within the outline's radius along its ray."""
     angles = sections.angles_rad
     step = float(angles[1] - angles[0]) if len(angles) > 1 else 2 * np.pi
+    known = np.isfinite(offsets).all(axis=1)  # a missing section has no centroid
+    offsets = np.where(known[:, None], offsets, 0.0)
     ray = np.rint((np.arctan2(offsets[:, 1], offsets[:, 0]) - angles[0]) / step).astype(np.int64) % len(angles)
-    return np.linalg.norm(offsets, axis=1) < sections.radii_mm[rows, ray]
+    return known & (np.linalg.norm(offsets, axis=1) < sections.radii_mm[rows, ray])
 
 
 def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm: float,
