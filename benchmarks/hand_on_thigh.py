@@ -48,8 +48,9 @@ RESULTS = Path(__file__).resolve().parent / "results"
 #: a point measured with a hand above its tape: right within this of the bare cloud's (mm)
 TOLERANCE_MM = 3.0
 #: how a record says that F and G were not measured for something against the thigh
-#: (app.geometry.anatomy.thigh_contact.ThighContact.reason: an arc, a garment's hem)
-CONTACT_SAID = ("lies against the thigh", "the thigh is covered")
+#: (app.geometry.anatomy.thigh_contact.ThighContact.reason: an arc at the outer or inner
+#: side, a garment's hem)
+CONTACT_SAID = ("something lies against", "the thigh is covered")
 #: where the fingertips are: (name, the point, mm from it, does the hand cover G)
 HANDS = (("F-40", "F", -40.0, True), ("F+30", "F", 30.0, True), ("G-60", "G", -60.0, True),
          ("G+20", "G", 20.0, False), ("G+50", "G", 50.0, False))

@@ -89,11 +89,15 @@ HEM_OVER_G_MM = 2 * CONTACT_RISE_MM
 class ThighContact:
     """Where something starts to lie against the thigh (height, calf frame, mm) and how
     far its arc moved out beyond the outline's median move there (mm); ``all_round``:
-    the whole outline moved out that far (a garment's hem), not an arc of it."""
+    the whole outline moved out that far (a garment's hem), not an arc of it;
+    ``inner``: the arc lies within LATERAL_ARC_DEG of the leg's inner side, where the
+    other thigh presses (legs standing together: benchmarks/legs_together.py 12 41 read
+    10 of 96 scans so, 9 of them pressed or touching; a hand hangs at the outer side)."""
 
     start_mm: float
     excess_mm: float
     all_round: bool = False
+    inner: bool = False
 
     def reason(self) -> str:
         """Why the points from :attr:`start_mm` up are not measured, for the person who scanned."""
@@ -103,18 +107,23 @@ class ThighContact:
                     f"thigh's rises by under {ALL_ROUND_MOVE_MM:g}): the hem of a garment - a shorts or trouser leg - "
                     "hanging round the thigh; the tape would read the garment and not the skin - scan with the thigh "
                     "bare (the garment rolled up above the gluteal fold or taken off)")
-        return (f"something lies against the thigh from {self.start_mm:.0f} mm above the ankle point B up (an arc of "
+        where, cause, stance = (
+            ("the inner thigh", "the other thigh pressed against it, or a hand, clothing or a skin fold",
+             "standing with the feet hip-width apart, the thighs not touching, and the thigh bare") if self.inner else
+            ("the thigh", "a hand or forearm held against the leg, or clothing or a skin fold over it",
+             "with the arms held away from the legs and the thigh bare"))
+        return (f"something lies against {where} from {self.start_mm:.0f} mm above the ankle point B up (an arc of "
                 f"its outline moves out by {self.excess_mm:.0f} mm within {CONTACT_RISE_MM:.0f} mm of height, where a "
-                f"bare thigh's stay under {CONTACT_EXCESS_MM:.0f}): a hand or forearm held against the leg, or clothing or "
-                "a skin fold over it; the thigh beneath it is not in the scan, so no tape can be read round the thigh "
-                "alone there - scan with the arms held away from the legs and the thigh bare")
+                f"bare thigh's stay under {CONTACT_EXCESS_MM:.0f}): {cause}; the thigh beneath it is not in the scan, "
+                f"so no tape can be read round the thigh alone there - scan {stance}")
 
 
 def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
-               arcs_judged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+               arcs_judged: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """How far (mm) the most-moving judged arc of each section ``upper`` (m,) int lies
     outside the section ``lower`` (m,) int below it, beyond the median move of the whole
-    outline, and that median move (mm): two (m,).
+    outline, that median move (mm), and the arc's angle (radians, the calf frame's):
+    three (m,).
 
     Both outlines are read from the lower section's centroid, to first order in the
     centroids' shift (a few mm against a thigh's ~80 mm radius): along the ray at angle
@@ -130,7 +139,9 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
     rays = max(1, int(round(CONTACT_ARC_DEG / 360.0 * len(angles))))
     arcs = uniform_filter1d(np.nan_to_num(move), rays, axis=1, mode="wrap")
     median = np.median(arcs, axis=1)
-    excess = np.where(arcs_judged, arcs, -np.inf).max(axis=1) - median
+    judged_arcs = np.where(arcs_judged, arcs, -np.inf)
+    most = judged_arcs.argmax(axis=1)
+    excess = judged_arcs[np.arange(len(most)), most] - median
     missing = ~(sections.valid[upper] & sections.valid[lower])
     if sections.largest_gap_deg is not None:
         # a section open over more than an arc (the scan's ragged top, a hole) is bridged
@@ -140,7 +151,7 @@ def arc_excess(sections: PolarSections, upper: np.ndarray, lower: np.ndarray,
         missing |= (gaps[upper] > CONTACT_ARC_DEG) | (gaps[lower] > CONTACT_ARC_DEG)
     median[missing] = np.nan
     excess[missing | ~arcs_judged.any(axis=1)] = np.nan
-    return excess, median
+    return excess, median, angles[most]
 
 
 def _holds(sections: PolarSections, rows: np.ndarray, offsets: np.ndarray) -> np.ndarray:
@@ -180,14 +191,13 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
     anywhere = (heights[upper] >= low_mm) & (heights[upper] <= top)
     outer_to = g_mm + ABOVE_G_MM if outer_to_mm is None else outer_to_mm
     outer = (heights[upper] > top) & (heights[upper] <= outer_to) & (lateral_rad is not None)
-    off_side = np.abs((sections.angles_rad - (lateral_rad or 0.0) + np.pi) % (2 * np.pi) - np.pi)
-    lateral = off_side <= np.radians(LATERAL_ARC_DEG)
+    lateral = _off_outer_side(sections.angles_rad, lateral_rad) <= np.radians(LATERAL_ARC_DEG)
     judged = anywhere[:, None] | (outer[:, None] & lateral[None, :])  # (m, a)
     hem_to = g_mm + HEM_OVER_G_MM if hem_to_mm is None else hem_to_mm
     hem_reach = (heights[upper] >= low_mm) & (heights[upper] <= hem_to)
     searched = anywhere | outer | hem_reach
     upper_rows, lower_rows = rows[upper[searched]], rows[upper[searched] - lag]
-    excess, median = arc_excess(sections, upper_rows, lower_rows, judged[searched])
+    excess, median, arc_angle = arc_excess(sections, upper_rows, lower_rows, judged[searched])
     # over G the scan ends: an outline far from the one below it is a piece of the
     # scan's ragged top, not compared.  Below G the thigh runs on through every plane
     # (its fold lies above), so such an outline is the plane's cut through something
@@ -206,5 +216,13 @@ def thigh_contact(sections: PolarSections, rows: np.ndarray, low_mm: float, g_mm
         return None
     start = float(heights[upper[searched][over[0]]] - CONTACT_RISE_MM)
     if excess[over[0]] > CONTACT_EXCESS_MM:
-        return ThighContact(start, float(excess[over[0]]))
+        inner = lateral_rad is not None and bool(
+            _off_outer_side(arc_angle[over[0]], lateral_rad) >= np.pi - np.radians(LATERAL_ARC_DEG))
+        return ThighContact(start, float(excess[over[0]]), inner=inner)
     return ThighContact(start, float(median[over[0]]), all_round=True)
+
+
+def _off_outer_side(angles_rad: np.ndarray, lateral_rad: float | None) -> np.ndarray:
+    """How far (radians, 0..pi) each angle lies round the section from the leg's outer
+    side ``lateral_rad`` (0 where it is not known: the angles as they are)."""
+    return np.abs((angles_rad - (lateral_rad or 0.0) + np.pi) % (2 * np.pi) - np.pi)

@@ -472,6 +472,22 @@ def test_a_hand_against_the_thigh_leaves_f_and_g_unmeasured():
         assert held.mid_thigh.girth_mm is None and held.mid_thigh.reason == held.top_of_thigh.reason
 
 
+def test_something_against_the_inner_thigh_names_the_other_thigh_and_the_stance():
+    """The same body held against the thigh's inner side (a right leg's -x) rather than
+    its outer side: where legs stand together the other thigh presses there (a hand
+    hangs at the outer side), so the reason names the other thigh and asks for the feet
+    apart; at the outer side it names a hand and asks for the arms away."""
+    bare = thigh_measures(_leg(), None, D, knee_bent=False)
+    tip = bare.mid_thigh.height_mm - 40.0
+    outer = _with_hand(_leg(), tip)
+    inner = outer * np.array([-1.0, 1.0, 1.0])  # the leg of revolution is symmetric in x
+    at_inner = thigh_measures(inner, None, D, knee_bent=False, side="right").top_of_thigh.reason
+    assert "lies against the inner thigh" in at_inner and "the other thigh pressed against it" in at_inner
+    assert "feet hip-width apart" in at_inner
+    at_outer = thigh_measures(outer, None, D, knee_bent=False, side="right").top_of_thigh.reason
+    assert "lies against the thigh" in at_outer and "a hand or forearm" in at_outer and "arms held away" in at_outer
+
+
 def test_a_hand_on_a_thigh_whose_fold_is_not_found_is_named_as_the_reason():
     """A scan that stops 10 mm under the gluteal fold, so no fold is found: bare, F and G
     say so; with a hand against it (its fingertips 110 or 180 mm over E), they say that
@@ -482,7 +498,7 @@ def test_a_hand_on_a_thigh_whose_fold_is_not_found_is_named_as_the_reason():
     leg = _leg(top=FOLD - 10.0)
     bare = thigh_measures(leg, None, D, knee_bent=False, side="right")
     assert bare.top_of_thigh.height_mm is None and "stops below the gluteal fold" in bare.top_of_thigh.reason
-    assert not any("lies against the thigh" in w for w in bare.warnings)
+    assert not any("lies against" in w for w in bare.warnings)
     e_mm = bare.knee.height_mm
     for tip in (e_mm + 110.0, e_mm + 180.0):
         held = thigh_measures(_with_hand(leg, tip), None, D, knee_bent=False, side="right")
