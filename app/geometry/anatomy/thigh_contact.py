@@ -92,7 +92,8 @@ class ThighContact:
     the whole outline moved out that far (a garment's hem), not an arc of it;
     ``inner``: the arc lies within LATERAL_ARC_DEG of the leg's inner side, where the
     other thigh presses (legs standing together: benchmarks/legs_together.py 12 41 read
-    10 of 96 scans so, 9 of them pressed or touching; a hand hangs at the outer side)."""
+    10 of 96 scans so: 8 of the 48 pressed or touching, 2 of the 24 standing 15-16 mm
+    apart, at the crotch; a hand hangs at the outer side)."""
 
     start_mm: float
     excess_mm: float
