@@ -22,7 +22,6 @@ bare cloud's are.  Wrong: a girth read on the garment, or moved by it.
 from __future__ import annotations
 
 import collections
-import json
 import sys
 import time
 from pathlib import Path
@@ -32,11 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from benchmarks.corpus import degrade  # noqa: E402
-from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs  # noqa: E402
-from benchmarks.hand_on_thigh import TOLERANCE_MM, _fit, _thigh, _xyz  # noqa: E402
-from benchmarks.provenance import environment, environment_line  # noqa: E402
+from benchmarks.hand_on_thigh import TOLERANCE_MM, _fit, _thigh, _xyz, generated_thighs, write_results  # noqa: E402
 
-RESULTS = Path(__file__).resolve().parent / "results"
 #: where the hem is: (name, the point, mm from it, does the garment cover G)
 HEMS = (("F-30", "F", -30.0, True), ("F+40", "F", 40.0, True), ("G-40", "G", -40.0, True),
         ("G+20", "G", 20.0, False))
@@ -96,14 +92,8 @@ def _verdict(bare: dict, worn: dict, covers_g: bool) -> str:
 def main(legs: int = 8, seed: int = 23) -> dict:
     started = time.perf_counter()
     rng = np.random.default_rng(seed)
-    subjects = ansur_subjects()
     rows, tally = [], collections.Counter()
-    for index in range(legs):
-        generated = sized_legs(subjects[int(rng.integers(len(subjects)))], rng, subdivisions=2)
-        sign = float(rng.choice([1.0, -1.0]))
-        leg = leg_submesh(generated.vertices, generated.faces, sign)
-        side = "left" if sign > 0 else "right"
-        cloud = degrade.cloud_noise(degrade.sample_cloud(leg, 80_000, rng), 0.5, rng)
+    for index, _leg, _sign, side, cloud in generated_thighs(legs, rng):
         record = _fit(_xyz(cloud), "xyz", side)
         bare = _thigh(record)
         tally[("bare cloud", "WRONG: garment on a bare leg" if "contact" in bare.values() else "right")] += 1
@@ -123,25 +113,14 @@ def main(legs: int = 8, seed: int = 23) -> dict:
         rows.append(row)
         print(f"leg {index} {side}: bare {bare}; "
               + "; ".join(f"{g['hem']}/{g['offset_mm']:.0f} {g['verdict']}" for g in row["garments"]), file=sys.stderr)
-    env = environment()
-    suffix = "" if seed == 23 else f"-seed{seed}"
-    (RESULTS / f"garment_on_thigh{suffix}.json").write_text(json.dumps(
-        {"environment": env, "legs": legs, "seed": seed, "rows": rows,
-         "tally": {f"{k[0]} | {k[1]}": v for k, v in sorted(tally.items())}}, indent=1))
-    lines = ["# A garment's leg round the thigh (benchmarks/garment_on_thigh.py)", "",
-             f"`benchmarks/garment_on_thigh.py {legs} {seed}` ({time.perf_counter() - started:.0f} s). "
-             + environment_line(env), "",
-             "| scan | answer | cases |", "|---|---|---|",
-             *(f"| {k[0]} | {k[1]} | {v} |" for k, v in sorted(tally.items())), "",
-             "| leg | side | bare cloud cF, cG | " + " | ".join(f"{h[0]}/{o:.0f}" for h in HEMS for o in OFFSETS_MM) + " |",
-             "|---|---|---|" + "---|" * (len(HEMS) * len(OFFSETS_MM))]
-    for row in rows:
-        cells = [f"{g['read'].get('cF', g['read'].get('refused'))}, {g['read'].get('cG', '')}: {g['verdict']}"
-                 for g in row["garments"]]
-        lines.append(f"| {row['leg']} | {row['side']} | {row['bare']} | "
-                     + " | ".join(cells or ["no G on the bare leg"] * (len(HEMS) * len(OFFSETS_MM))) + " |")
-    (RESULTS / f"garment_on_thigh{suffix}.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    cases = [f"{h[0]}/{o:.0f}" for h in HEMS for o in OFFSETS_MM]
+    cells = [[str(row["leg"]), row["side"], str(row["bare"]),
+              *([f"{g['read'].get('cF', g['read'].get('refused'))}, {g['read'].get('cG', '')}: {g['verdict']}"
+                 for g in row["garments"]] or ["no G on the bare leg"] * len(cases))] for row in rows]
+    write_results("garment_on_thigh" + ("" if seed == 23 else f"-seed{seed}"),
+                  "A garment's leg round the thigh (benchmarks/garment_on_thigh.py)",
+                  f"benchmarks/garment_on_thigh.py {legs} {seed}", started, rows, tally,
+                  ["leg", "side", "bare cloud cF, cG", *cases], cells)
     return {"tally": tally}
 
 

@@ -132,17 +132,46 @@ def _verdict(bare: dict, held: dict, covers_g: bool) -> str:
     return "right" if off <= TOLERANCE_MM else f"WRONG: {off:.0f} mm off"
 
 
-def main(legs: int = 8, seed: int = 21) -> dict:
-    started = time.perf_counter()
-    rng = np.random.default_rng(seed)
+def generated_thighs(legs: int, rng: np.random.Generator):
+    """(index, leg mesh, sign, side, bare cloud) for ``legs`` generated legs drawn from
+    ``rng`` in turn: an ANSUR II subject's MakeHuman leg, foot to hip (MakeHuman mm,
+    standing along +y; ``sign`` +1 its left leg), and its noisy cloud (80k points, 0.5 mm
+    noise).  The caller may draw from ``rng`` between legs (benchmarks/garment_on_thigh.py
+    reads its legs this way too)."""
     subjects = ansur_subjects()
-    rows, tally = [], collections.Counter()
     for index in range(legs):
         generated = sized_legs(subjects[int(rng.integers(len(subjects)))], rng, subdivisions=2)
         sign = float(rng.choice([1.0, -1.0]))
         leg = leg_submesh(generated.vertices, generated.faces, sign)
-        side = "left" if sign > 0 else "right"
         cloud = degrade.cloud_noise(degrade.sample_cloud(leg, 80_000, rng), 0.5, rng)
+        yield index, leg, sign, "left" if sign > 0 else "right", cloud
+
+
+def write_results(stem: str, title: str, run: str, started: float, rows: list[dict], tally: collections.Counter,
+                  head: list[str], cells: list[list[str]]) -> None:
+    """``stem``.json (the run, its rows and tally) and ``stem``.md (``title``; the
+    command ``run``, how long since ``started`` and the environment; the tally; a table
+    of ``head`` columns and a row of ``cells`` per leg) in benchmarks/results."""
+    env = environment()
+    legs, seed = (int(a) for a in run.split()[-2:])
+    (RESULTS / f"{stem}.json").write_text(json.dumps(
+        {"environment": env, "legs": legs, "seed": seed, "rows": rows,
+         "tally": {f"{k[0]} | {k[1]}": v for k, v in sorted(tally.items())}}, indent=1))
+    lines = [f"# {title}", "",
+             f"`{run}` ({time.perf_counter() - started:.0f} s). " + environment_line(env), "",
+             "| scan | answer | cases |", "|---|---|---|",
+             *(f"| {k[0]} | {k[1]} | {v} |" for k, v in sorted(tally.items())), "",
+             "| " + " | ".join(head) + " |", "|" + "---|" * len(head),
+             *("| " + " | ".join(row) + " |" for row in cells)]
+    (RESULTS / f"{stem}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def main(legs: int = 8, seed: int = 21) -> dict:
+    started = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    rows, tally = [], collections.Counter()
+    for index, leg, sign, side, cloud in generated_thighs(legs, rng):
         mesh_record, cloud_record = _fit(leg.export(file_type="stl"), "stl", side), _fit(_xyz(cloud), "xyz", side)
         bare = {"mesh": _thigh(mesh_record), "cloud": _thigh(cloud_record)}
         for kind, read in bare.items():
@@ -165,25 +194,13 @@ def main(legs: int = 8, seed: int = 21) -> dict:
         rows.append(row)
         print(f"leg {index} {side}: bare {bare}; " + "; ".join(f"{h['fingertips']} {h['verdict']}" for h in row["hands"]),
               file=sys.stderr)
-    env = environment()
-    suffix = "" if seed == 21 else f"-seed{seed}"
-    (RESULTS / f"hand_on_thigh{suffix}.json").write_text(json.dumps(
-        {"environment": env, "legs": legs, "seed": seed, "rows": rows,
-         "tally": {f"{k[0]} | {k[1]}": v for k, v in sorted(tally.items())}}, indent=1))
-    lines = ["# A hand against the thigh (benchmarks/hand_on_thigh.py)", "",
-             f"`benchmarks/hand_on_thigh.py {legs} {seed}` ({time.perf_counter() - started:.0f} s). "
-             + environment_line(env), "",
-             "| scan | answer | cases |", "|---|---|---|",
-             *(f"| {k[0]} | {k[1]} | {v} |" for k, v in sorted(tally.items())), "",
-             "| leg | side | bare mesh cF, cG | bare cloud cF, cG | " + " | ".join(h[0] for h in HANDS) + " |",
-             "|---|---|---|---|" + "---|" * len(HANDS)]
-    for row in rows:
-        cells = [f"{h['read'].get('cF', h['read'].get('refused'))}, {h['read'].get('cG', '')}: {h['verdict']}"
-                 for h in row["hands"]]
-        lines.append(f"| {row['leg']} | {row['side']} | {row['bare']['mesh']} | {row['bare']['cloud']} | "
-                     + " | ".join(cells or ["no G on the bare leg"] * len(HANDS)) + " |")
-    (RESULTS / f"hand_on_thigh{suffix}.md").write_text("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    cells = [[str(row["leg"]), row["side"], str(row["bare"]["mesh"]), str(row["bare"]["cloud"]),
+              *([f"{h['read'].get('cF', h['read'].get('refused'))}, {h['read'].get('cG', '')}: {h['verdict']}"
+                 for h in row["hands"]] or ["no G on the bare leg"] * len(HANDS))] for row in rows]
+    write_results("hand_on_thigh" + ("" if seed == 21 else f"-seed{seed}"),
+                  "A hand against the thigh (benchmarks/hand_on_thigh.py)",
+                  f"benchmarks/hand_on_thigh.py {legs} {seed}", started, rows, tally,
+                  ["leg", "side", "bare mesh cF, cG", "bare cloud cF, cG", *(h[0] for h in HANDS)], cells)
     return {"tally": tally}
 
 
