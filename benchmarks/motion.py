@@ -19,8 +19,9 @@ kind's range:
 
 Reported per kind: outcomes, the girths' |scan - clean| (cB, cB1, cC, cD, cE, cF, cG),
 and whether a scan whose girths are more than 3 mm off says so: a warning about the
-leg twice, the skin twice or the surface off the skin, or an uncertainty stated on each
-point that far off (its own or the clean scan's) that covers the difference.
+leg twice, the skin twice, the skin stepping along a seam or the surface off the skin,
+or an uncertainty stated on each point that far off (its own or the clean scan's) that
+covers the difference.
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ GIRTHS = ("cB", "cB1", "cC", "cD", "cE", "cF", "cG")
 #: kind -> range of the move, mm
 KINDS = {"mesh_twice": (2.0, 15.0), "cloud_twice": (1.0, 6.0), "cloud_step": (2.0, 6.0), "cloud_halves": (2.0, 6.0)}
 #: what a warning about a scan taken twice or moving says
-SAID = ("holds this leg", "holds the skin twice", "off the scan's skin")
+SAID = ("holds this leg", "holds the skin twice", "off the scan's skin", "skin steps")
 OFF_MM = 3.0
 
 
@@ -159,7 +160,7 @@ def write(summary: dict) -> None:
         "",
         f"{summary['legs']} generated whole legs (seed {summary['seed']}), each scanned clean as a mesh (the reference) "
         f"and as each kind below; {summary['seconds']:.0f} s.  Girths cB ... cG, |scan - clean| in mm; 'said' is a "
-        "warning about the leg twice, the skin twice or the surface off the skin that the clean scan does not carry.",
+        "warning about the leg twice, the skin twice, the skin stepping along a seam or the surface off the skin that the clean scan does not carry.",
         "",
         "| kind | move mm | outcomes | girths p50 / p95 / max | scans said | scans > 3 mm off | of them said "
         "| of them with every such point's uncertainty stated |",

@@ -40,6 +40,7 @@ from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, open_arcs_failure, without_open_arcs
 from app.geometry.placement.place import LegPlacement
 from app.geometry.scan.skin_layers import skin_layers
+from app.geometry.scan.skin_seam import skin_seam
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, LimbGraph, slice_polar, tape_band_girths, tape_girths
 from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import error_statistics
@@ -222,6 +223,7 @@ def fit_calf(
     )
     lap("feature_points")
 
+    every_calf_point = in_calf
     if faces is None:
         in_calf = in_calf[:: -(-len(in_calf) // MAX_ERROR_POINTS)]
     lsq_fit = None
@@ -253,8 +255,13 @@ def fit_calf(
             "C and the thigh's points (E, F and the gluteal fold G) are placed on slabs up to 20 mm thick, which can "
             "move them and the lengths several mm; a denser export measures them better, or take them by tape")
     layers = skin_layers(local[in_calf]) if faces is None else None  # a cloud's skin twice (a mesh's is one surface)
+    # a cloud captured in parts while the leg moved steps along the seam: read on every
+    # calf point (each window's fit needs its points)
+    seam = skin_seam(local[every_calf_point], b_mm, d_mm) if faces is None else None
     if layers is not None and layers.doubled:
         fit_warnings.append(layers.doubled_text)
+    if seam is not None and seam.moved:
+        fit_warnings.append(seam.moved_text)
     for name in LANDMARK_NAMES:
         tolerance = (landmarks.tolerances_mm or {}).get(name, 0.0)
         if not landmarks.at_edge(name) and landmarks.confidence(name) == "low":
@@ -304,6 +311,7 @@ def fit_calf(
         lsq=lsq_fit,
         skin=skin,
         skin_layers=layers,
+        skin_seam=seam,
         sparse_points_per_mm=float(density) if sparse_warned and density is not None else None,
         fit_warnings=tuple(fit_warnings),
     )

@@ -18,6 +18,7 @@ from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.place import LegPlacement
 from app.geometry.scan.skin_layers import SkinLayers
+from app.geometry.scan.skin_seam import SkinSeam
 from app.geometry.sections import PolarSections
 from app.geometry.spline.distance import SurfaceError
 from app.geometry.spline.lsq import LsqFit
@@ -48,6 +49,8 @@ class FitResult:
     sole_reason: str | None = None
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
+    #: a cloud's skin stepping along a line up the calf (app.geometry.scan.skin_seam)
+    skin_seam: SkinSeam | None = None
     #: a cloud too sparse for thin slabs (SPARSE_CLOUD_POINTS_PER_MM): its points per mm of
     #: the calf's height (the fit warns; a thigh-high designed from it is "review")
     sparse_points_per_mm: float | None = None

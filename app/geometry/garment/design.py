@@ -65,6 +65,7 @@ from app.geometry.garment.standards import (
 from app.geometry.garment.stocking_ends import MAX_TOP_BAND_MM, TOES, TOP_BAND_WIDTH_MM, FootOutcome, TopBand, foot_part, top_band
 from app.geometry.garment.thigh_design import ThighPart, thigh_part
 from app.geometry.scan.skin_layers import SkinLayers
+from app.geometry.scan.skin_seam import SkinSeam
 from app.geometry.spline.nurbs import NurbsSurface
 from app.geometry.spline.skin_distance import SkinDistance
 
@@ -204,10 +205,12 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     C, D; side: "left" | "right" | None; chart: the record's points off the calf (schema
     version 3), which a thigh-high (``inputs.stocking_type`` "AG") needs: cE, cF, cG and
     the thigh profile; fit: the record's ``fit`` (what the fit noticed), of which the
-    design reads three entries, each making it "review": ``surface_to_scan`` (the surface
+    design reads four entries, each making it "review": ``surface_to_scan`` (the surface
     -> scan distances, app.geometry.spline.skin_distance.SkinDistance.as_dict: a surface
     standing off the skin over an arc of a ring), ``skin_layers``
-    (app.geometry.scan.skin_layers.SkinLayers.as_dict: a cloud holding the skin twice) and,
+    (app.geometry.scan.skin_layers.SkinLayers.as_dict: a cloud holding the skin twice),
+    ``skin_seam`` (app.geometry.scan.skin_seam.SkinSeam.as_dict: a cloud whose skin steps
+    along a line up the calf, the leg moved between the scan's parts) and,
     for a thigh-high, ``sparse_points_per_mm`` (a cloud too sparse for thin slabs: its
     thigh's points and G may be off).  An entry of another form (an imported record's) is
     no reason.
@@ -306,6 +309,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
         uncertain_inputs=_uncertain_landmarks(landmarks)
         + _uncertain_points(chart, ("cA", "cY") + (THIGH_POINTS if thigh is not None else ())) + _off_skin(noticed.get("surface_to_scan"))
         + _doubled_skin(noticed.get("skin_layers"))
+        + _stepped_skin(noticed.get("skin_seam"))
         + _sparse_thigh(noticed.get("sparse_points_per_mm"), thigh is not None),
     )
 
@@ -330,6 +334,17 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
         return ()
     return (f"{layers.doubled_text}; the stocking is knitted from these girths: take B, C and D by tape before "
             "ordering",)
+
+
+def _stepped_skin(skin_seam: dict | None) -> tuple[str, ...]:
+    """The sentence for a record fitted from a cloud whose skin steps along a line up the
+    calf (the fit's own warning, :attr:`SkinSeam.moved`): the leg moved between the parts
+    of the scan, its girths may read off by up to about twice the move, and the stocking
+    would be knitted loose or tight by as much."""
+    seam = SkinSeam.from_dict(skin_seam)
+    if seam is None or not seam.moved:
+        return ()
+    return (f"{seam.moved_text}; the stocking is knitted from these girths: take B, C and D by tape before ordering",)
 
 
 def _sparse_thigh(points_per_mm: object, thigh_high: bool) -> tuple[str, ...]:

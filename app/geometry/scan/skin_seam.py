@@ -1,0 +1,236 @@
+"""Does a point cloud's skin step along a line up the leg?  A cloud captured in parts
+while the leg moved.
+
+A scanner that takes one side of the leg and then the other (two views, or a hand-held
+sweep down the front and back up the other side) and merges the parts where they meet
+gives, when the leg moved in between, a skin cut along a line up the leg: on one side of
+the seam the skin lies where it was at the first view, on the other where it was at the
+second.  Across the seam the skin steps (the move's part along the skin's normal there)
+or opens or overlaps (its part along the skin).  Each part is a smooth leg, the parts
+do not overlap, so the skin is not there twice (:mod:`app.geometry.scan.skin_layers` sees
+one layer), and the tape - the convex hull of the section - bridges the step and the gap
+or misses the overlap: generated legs whose two halves were captured 2-6 mm apart read
+their girths 3-11 mm off, in 18 of 20 scans with no warning (benchmarks/motion.py,
+``cloud_halves``).  :func:`skin_seam` looks for the step.
+
+Method (a discontinuity of the section's radius, followed up the leg):
+
+1. the points between two heights in slabs :data:`SLAB_MM` thick, each read in polar
+   coordinates about its slab's median centre and binned every :data:`BIN_DEG`;
+2. at every bin edge of every slab, the skin's radius is extrapolated to the edge from
+   each side: a least-squares fit of ``r = a + b u + c u^2 + e z`` to the points within
+   :data:`WINDOW_BINS` bins on that side (u the angle from the edge, z the height in the
+   slab; the quadratic takes up the section's curvature, so that a ridge - a kink, as
+   the tibial crest is - leaves both sides meeting at its apex).  The jump is the two
+   sides' difference at the edge, its standard error the two intercepts' (the residuals'
+   variance times the normal matrix's inverse);
+3. a bin edge steps where the jump is at least :data:`STEP_MM` and :data:`SIGNIFICANCE`
+   standard errors; the seam is the path up the slabs, one edge per slab moving at most
+   :data:`DRIFT_BINS` from slab to slab (a cut plane's trace drifts round a tapered,
+   bent leg), that passes the most stepping edges (dynamic programming, as Viterbi's
+   algorithm finds the best path through a lattice).  Its ``share`` is the stepping
+   edges it passes over the slabs measured.
+
+A rigid move of one part steps along the whole seam; the leg's own shape and a
+scanner's noise do not, so the share separates them (measured on the motion benchmark's
+clouds, generated and real legs; the numbers are :data:`SEAM_SHARE`'s).  Not caught: a
+part that moved into the other along the seam, the move mostly along the skin there -
+the parts then overlap over the move's width and the skin bends instead of stepping (the
+leg reads narrower by up to twice the move); noise of 1 mm on steps of 2 mm; clouds too
+sparse for the windows (under about 0.1 points per mm^2), which are not measured.
+
+Units: mm.  Frame: the calf frame (z up the leg).  Arrays: points (n, 3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from math import comb
+
+import numpy as np
+
+#: slab thickness and angular bin, mm and degrees.  A moved part's seam runs straight up
+#: the leg, so a thicker slab gives each side's fit more points at no cost to the step:
+#: on 48 generated halves clouds (0-1 mm of noise) slabs of 16 mm found 30 seams where 8
+#: mm found 25, and single clouds' shares stayed as low (at most 0.23 against 0.27)
+SLAB_MM = 16.0
+BIN_DEG = 2.0
+#: bins on each side of an edge that its radius is extrapolated from (16 degrees: 14 mm
+#: of a calf 50 mm in radius, 8 mm of an ankle)
+WINDOW_BINS = 8
+#: a side's fit needs this many points (4 coefficients)
+MIN_SIDE_POINTS = 10
+#: the degree of the angular polynomial each side is fitted with (module docstring, 2).
+#: With straight lines (degree 1) the tibial crest of BodyParts3D's leg, read as a cloud,
+#: stepped along 53-59% of its calf, as much as a moved half; with parabolas along 6-9%
+ANGULAR_DEGREE = 2
+#: an edge steps when its jump is at least this many mm and SIGNIFICANCE standard errors
+STEP_MM = 0.5
+SIGNIFICANCE = 3.0
+#: the seam's edge moves at most this many bins from one slab to the next (2 degrees per
+#: 16 mm: a cut plane through the whole leg's middle drifts round the calf as the calf's
+#: centre moves off it, by about 1 degree per 16 mm on the motion benchmark's legs)
+DRIFT_BINS = 1
+#: a slab is measured when this share of its edges have both sides fitted, and the cloud
+#: when this share of its slabs are
+MEASURED_SHARE = 0.5
+#: the seam is a moved part's when it steps along at least this share of the slabs
+#: measured.  Measured (benchmarks/motion.py and benchmarks/skin_seam.py): clouds of a
+#: leg whose two halves were captured 2-6 mm apart 0.56-0.97 where the move stepped the
+#: skin by more than about 1 mm; single clouds - generated legs clean, noisy (up to 1 mm),
+#: with holes, stray points, a floor, a tessellation's vertices - at most 0.17, one side
+#: 4 times sparser (a density step across the leg) at most 0.36; BodyParts3D's real leg
+#: 0.06-0.12 (its tibial crest)
+SEAM_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class SkinSeam:
+    """Where a cloud's skin steps along a line up the leg (module docstring)."""
+
+    share: float  # the stepping edges on the seam over the slabs measured
+    step_mm: float  # the median jump where the seam steps (nan without any)
+    slabs: int  # slabs measured
+    length_mm: float  # the height the slabs cover
+
+    @classmethod
+    def from_dict(cls, data) -> SkinSeam | None:
+        """The seam as a record's ``fit.skin_seam`` stores it (:meth:`as_dict`), or None
+        when ``data`` is not such a dict (a mesh's record, one made before it was kept,
+        one imported from elsewhere)."""
+        if not isinstance(data, dict):
+            return None
+        try:
+            return cls(float(data["share"]), float(data["step_mm"]), int(data["slabs"]), float(data["length_mm"]))
+        except (KeyError, TypeError, ValueError, OverflowError):
+            return None
+
+    def as_dict(self) -> dict:
+        return {"share": self.share, "step_mm": self.step_mm, "slabs": self.slabs, "length_mm": self.length_mm,
+                "moved": self.moved}
+
+    @property
+    def moved(self) -> bool:
+        return self.share >= SEAM_SHARE
+
+    @property
+    def moved_text(self) -> str:
+        """The fit's warning, in words."""
+        return (f"the cloud's skin steps by about {self.step_mm:.1f} mm along a line up the leg, over "
+                f"{self.share:.0%} of the {self.length_mm:.0f} mm measured: the scanner captured the leg in parts "
+                "(one side, then the other) and the leg moved in between; a tape across the seam reads the girths "
+                "off by up to about twice the move, and the points placed on the girth profile (E, F, G) may move "
+                "with them; scan again with the leg still, or take the girths by tape")
+
+
+def _edge_jumps(points: np.ndarray, low_mm: float, high_mm: float) -> tuple[np.ndarray, np.ndarray]:
+    """(slabs, bins) jumps of the radius at each bin edge (mm, the counter-clockwise side
+    less the clockwise side, NaN where a side has too few points) and their standard
+    errors, over ``points`` (n, 3) between ``low_mm`` and ``high_mm`` (module docstring,
+    steps 1-2).  Each side's normal equations are summed from per-bin moments: the
+    moments of the angle about the bin's centre, shifted to the edge binomially."""
+    z = points[:, 2]
+    points = points[(z >= low_mm) & (z < high_mm)]
+    slab = ((points[:, 2] - low_mm) // SLAB_MM).astype(np.int64)
+    n_slabs, n_bins = int(slab.max()) + 1, int(round(360.0 / BIN_DEG))
+    order = np.argsort(slab, kind="stable")
+    starts = np.searchsorted(slab[order], np.arange(n_slabs))
+    centre = np.full((n_slabs, 2), np.nan)
+    filled = np.bincount(slab, minlength=n_slabs) > 0
+    centre[filled] = [np.median(part, axis=0) for part in np.split(points[order, :2], starts[1:]) if len(part)]
+    offset = points[:, :2] - centre[slab]
+    radius = np.hypot(offset[:, 0], offset[:, 1])
+    angle = np.mod(np.arctan2(offset[:, 1], offset[:, 0]), 2.0 * np.pi) / np.deg2rad(BIN_DEG)  # in bins
+    column = np.minimum(angle.astype(np.int64), n_bins - 1)
+    u = angle - column - 0.5  # about the bin's centre, in bins
+    height = points[:, 2] - (low_mm + (slab + 0.5) * SLAB_MM)
+    cell = slab * n_bins + column
+    deg = ANGULAR_DEGREE
+
+    def summed(weights: np.ndarray) -> np.ndarray:
+        return np.bincount(cell, weights=weights, minlength=n_slabs * n_bins).reshape(n_slabs, n_bins)
+
+    u_powers = [summed(u**k) for k in range(2 * deg + 1)]
+    u_radius = [summed(u**k * radius) for k in range(deg + 1)]
+    u_height = [summed(u**k * height) for k in range(deg + 1)]
+    hh, hr, rr = summed(height * height), summed(height * radius), summed(radius * radius)
+    intercept, variance = {}, {}
+    n_basis = deg + 2  # 1, u, ..., u^deg, z
+    for side in (1, -1):
+        U = [np.zeros((n_slabs, n_bins)) for _ in range(2 * deg + 1)]
+        UR = [np.zeros((n_slabs, n_bins)) for _ in range(deg + 1)]
+        UH = [np.zeros((n_slabs, n_bins)) for _ in range(deg + 1)]
+        HH, HR, RR = (np.zeros((n_slabs, n_bins)) for _ in range(3))
+        for o in range(WINDOW_BINS):
+            # edge j (between bins j-1 and j): the counter-clockwise side's bins j + o, the other's j - 1 - o
+            shift, a = (-o, o + 0.5) if side == 1 else (o + 1, -(o + 0.5))
+            rolled = [np.roll(m, shift, axis=1) for m in u_powers]
+            for k in range(2 * deg + 1):
+                U[k] += sum(comb(k, j) * a ** (k - j) * rolled[j] for j in range(k + 1))
+            rolled_r = [np.roll(m, shift, axis=1) for m in u_radius]
+            rolled_h = [np.roll(m, shift, axis=1) for m in u_height]
+            for k in range(deg + 1):
+                UR[k] += sum(comb(k, j) * a ** (k - j) * rolled_r[j] for j in range(k + 1))
+                UH[k] += sum(comb(k, j) * a ** (k - j) * rolled_h[j] for j in range(k + 1))
+            HH += np.roll(hh, shift, axis=1)
+            HR += np.roll(hr, shift, axis=1)
+            RR += np.roll(rr, shift, axis=1)
+        normal = np.empty((n_slabs, n_bins, n_basis, n_basis))
+        rhs = np.empty((n_slabs, n_bins, n_basis))
+        for i in range(deg + 1):
+            for j in range(deg + 1):
+                normal[..., i, j] = U[i + j]
+            normal[..., i, -1] = normal[..., -1, i] = UH[i]
+            rhs[..., i] = UR[i]
+        normal[..., -1, -1], rhs[..., -1] = HH, HR
+        count = U[0]
+        fitted = count >= MIN_SIDE_POINTS
+        normal[~fitted] = np.eye(n_basis)
+        rhs[~fitted] = 0.0
+        # a ridge of 1e-9 keeps a side whose points all lie in one bin (u constant) invertible
+        inverse = np.linalg.inv(normal + 1e-9 * np.eye(n_basis))
+        beta = np.einsum("...ij,...j->...i", inverse, rhs)
+        residual = np.maximum(RR - np.einsum("...i,...i->...", beta, rhs), 0.0) / np.maximum(count - n_basis, 1.0)
+        intercept[side] = np.where(fitted, beta[..., 0], np.nan)
+        variance[side] = np.where(fitted, residual * inverse[..., 0, 0], np.nan)
+    return intercept[1] - intercept[-1], np.sqrt(variance[1] + variance[-1])
+
+
+def _most_stepping_path(stepping: np.ndarray) -> tuple[int, np.ndarray]:
+    """The most stepping edges (slabs, bins) bool a path up the slabs passes, one edge per
+    slab moving at most DRIFT_BINS round (periodic) from slab to slab, and the path
+    (slabs,) of bin indices (module docstring, step 3)."""
+    n_slabs, n_bins = stepping.shape
+    score = stepping[0].astype(np.int64)
+    came = np.zeros((n_slabs, n_bins), dtype=np.int64)
+    moves = np.arange(-DRIFT_BINS, DRIFT_BINS + 1)
+    for k in range(1, n_slabs):
+        options = np.stack([np.roll(score, m) for m in moves])  # options[i, j]: the score at bin j - moves[i]
+        best = np.argmax(options, axis=0)
+        came[k] = moves[best]
+        score = options[best, np.arange(n_bins)] + stepping[k]
+    path = np.empty(n_slabs, dtype=np.int64)
+    path[-1] = int(np.argmax(score))
+    for k in range(n_slabs - 1, 0, -1):
+        path[k - 1] = (path[k] - came[k, path[k]]) % n_bins
+    return int(score.max()), path
+
+
+def skin_seam(points: np.ndarray, low_mm: float, high_mm: float) -> SkinSeam | None:
+    """The seam of ``points`` (n, 3) calf-frame mm between ``low_mm`` and ``high_mm``
+    (module docstring); None when fewer than MEASURED_SHARE of the slabs can be measured
+    (a sparse cloud, a short stretch)."""
+    points = np.asarray(points, dtype=np.float64)
+    if high_mm - low_mm < 4 * SLAB_MM or not len(points):
+        return None
+    jump, error = _edge_jumps(points, low_mm, high_mm)
+    measured = np.isfinite(jump).mean(axis=1) >= MEASURED_SHARE
+    if measured.mean() < MEASURED_SHARE:
+        return None
+    with np.errstate(invalid="ignore"):
+        stepping = (np.abs(jump) >= STEP_MM) & (np.abs(jump) >= SIGNIFICANCE * error) & measured[:, None]
+    passed, path = _most_stepping_path(stepping)
+    on_path = stepping[np.arange(len(path)), path]
+    steps = np.abs(jump[np.arange(len(path)), path][on_path])
+    return SkinSeam(share=passed / int(measured.sum()), step_mm=float(np.median(steps)) if steps.size else float("nan"),
+                    slabs=int(measured.sum()), length_mm=float(high_mm - low_mm))
