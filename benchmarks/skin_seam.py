@@ -1,5 +1,5 @@
-"""A scan captured in parts while the leg moved: is the seam found, and is a single
-scan left alone (app.geometry.scan.skin_seam)?
+"""A cloud captured in parts while the leg moved: is the seam found, and is a single
+cloud left alone (app.geometry.scan.skin_seam)?
 
 Run:  .venv/bin/python benchmarks/skin_seam.py [LEGS] [SEED]   (default 8 43)
 Writes benchmarks/results/skin_seam.md and skin_seam.json (skin_seam-seedN.* for a seed
@@ -8,18 +8,15 @@ other than 43).
 Each of LEGS generated whole legs (an ANSUR II subject's MakeHuman leg with its foot,
 benchmarks/corpus) is read as:
 
-- every cloud kind and every standing mesh kind of the robustness corpus
-  (benchmarks/corpus/cases.py: clean, noisy, stray points, one side sparser, holes, a
-  floor, a tessellation's vertices, a body's, cropped, coarse, with a fragment of the
-  other leg, both legs): one skin, no seam - a seam said is a false alarm;
+- every cloud kind of the robustness corpus (benchmarks/corpus/cases.py: clean, noisy,
+  stray points, one side sparser, holes, a floor, a tessellation's vertices, a body's,
+  cropped): one skin, no seam - a seam said is a false alarm;
 - ``halves``: a cloud (40-120k points by area, as benchmarks/motion.py draws) whose
   points on one side of a plane along the leg, through its middle, moved 2-6 mm across
-  the leg in a random direction, with 0, 0.5 or 1 mm of noise per coordinate; and
-  ``mesh_halves``: the clean mesh with its vertices on that side so moved (the triangles
-  across the seam stretched or folded back, as a scanner meshing such a capture leaves
-  them), with 0 or 0.5 mm of noise along the normals.  Their girths cB ... cD are
-  compared with the clean mesh's: a scan more than :data:`OFF_MM` off must say so (the
-  seam's warning, or another about the skin: the surface off it, the skin twice).
+  the leg in a random direction, with 0, 0.5 or 1 mm of noise per coordinate.  Its
+  girths cB ... cD are compared with the clean mesh's: a scan more than
+  :data:`OFF_MM` off must say so (the seam's warning, or another about the skin: the
+  surface off it, the skin twice).
 
 And BodyParts3D's real leg (tests/data/real) as clouds drawn by area, clean and noisy:
 its tibial crest is the strongest ridge a leg has.  Reported per kind: the seam's share
@@ -53,12 +50,9 @@ from benchmarks.motion import as_cloud, clean_leg  # noqa: E402
 from benchmarks.provenance import environment, environment_line  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results"
-SINGLE_KINDS = ("cloud", "cloud_noise", "cloud_outliers", "cloud_uneven", "cloud_holes", "floor_cloud", "vertex_cloud",
-                "knee_high_cloud", "ankle_to_thigh_cloud", "body_vertices", "sparse_leg_vertices",
-                "mesh_clean", "noise", "holes", "coarse_mesh", "floor", "fragment", "knee_high", "ankle_to_thigh",
-                "midfoot_midthigh", "two_legs")
+CLOUD_KINDS = ("cloud", "cloud_noise", "cloud_outliers", "cloud_uneven", "cloud_holes", "floor_cloud", "vertex_cloud",
+               "knee_high_cloud", "ankle_to_thigh_cloud", "body_vertices", "sparse_leg_vertices")
 HALVES_NOISE_MM = (0.0, 0.5, 1.0)
-MESH_HALVES_NOISE_MM = (0.0, 0.5)
 GIRTHS = ("B", "B1", "C", "D")
 #: a halves scan whose girths are more than this off the clean mesh's must say so
 OFF_MM = 3.0
@@ -82,35 +76,19 @@ def read(data: bytes, file_type: str, units: str | None = "mm", side: str | None
             "girths": dict(fit.landmarks.tape_girths_mm or {})}
 
 
-def _cut_and_move(axis: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, dict]:
-    """A plane along ``axis`` (its normal) and a move of 2-6 mm across the leg (mm)."""
-    move = float(rng.uniform(2.0, 6.0))
-    across = np.cross(axis, rng.normal(size=3))
-    across /= np.linalg.norm(across)
-    normal = np.cross(axis, rng.normal(size=3))
-    normal /= np.linalg.norm(normal)
-    # the move's share along the cut plane's normal: + opens a gap at the seams, - overlaps
-    return normal, move * across, {"move_mm": move, "opening": float(across @ normal)}
-
-
 def halves(mesh: trimesh.Trimesh, axis: np.ndarray, noise_mm: float, rng: np.random.Generator) -> tuple[bytes, dict]:
     """A cloud of ``mesh`` (mm) whose points on one side of a plane along ``axis`` moved
     2-6 mm across it (module docstring), and how."""
     n = int(np.clip(mesh.area * rng.uniform(0.25, 0.5), 40_000, 120_000))
     cloud = degrade.sample_cloud(mesh, n, rng)
-    normal, shift, how = _cut_and_move(axis, rng)
-    cloud[(cloud - cloud.mean(axis=0)) @ normal > 0] += shift
-    return as_cloud(degrade.cloud_noise(cloud, noise_mm, rng))[0], how
-
-
-def mesh_halves(mesh: trimesh.Trimesh, axis: np.ndarray, noise_mm: float, rng: np.random.Generator) -> tuple[bytes, dict]:
-    """``mesh`` (mm) with its vertices on one side of a plane along ``axis`` moved 2-6 mm
-    across it (module docstring), as a binary STL, and how."""
-    normal, shift, how = _cut_and_move(axis, rng)
-    vertices = mesh.vertices.copy()
-    vertices[(vertices - vertices.mean(axis=0)) @ normal > 0] += shift
-    moved = degrade.vertex_noise(trimesh.Trimesh(vertices, mesh.faces, process=False), noise_mm, rng)
-    return moved.export(file_type="stl"), how
+    move = float(rng.uniform(2.0, 6.0))
+    across = np.cross(axis, rng.normal(size=3))
+    across /= np.linalg.norm(across)
+    normal = np.cross(axis, rng.normal(size=3))
+    normal /= np.linalg.norm(normal)
+    cloud[(cloud - cloud.mean(axis=0)) @ normal > 0] += move * across
+    # the move's share along the cut plane's normal: + opens a gap at the seams, - overlaps
+    return as_cloud(degrade.cloud_noise(cloud, noise_mm, rng))[0], {"move_mm": move, "opening": float(across @ normal)}
 
 
 def main(legs: int = 8, seed: int = 43) -> dict:
@@ -125,9 +103,9 @@ def main(legs: int = 8, seed: int = 43) -> dict:
     subjects = ansur_subjects()
     for leg in range(legs):
         subject = int(rng.integers(len(subjects)))
-        for kind in SINGLE_KINDS:
+        for kind in CLOUD_KINDS:
             case = build_case(CaseSpec(f"seam-{leg}-{kind}", kind, int(rng.integers(2**31)), subject))
-            side = case.side or ("right" if kind == "body_vertices" else None)  # a body's two legs: one asked for
+            side = "right" if kind == "body_vertices" else None  # a body's two legs: one asked for
             rows.append({"leg": leg, "kind": kind, **read(case.data, case.file_type, case.units, side)})
             print(leg, kind, rows[-1].get("share"), file=sys.stderr)
         mesh, axis, _ = clean_leg(int(rng.integers(2**31)), subject)
@@ -138,13 +116,6 @@ def main(legs: int = 8, seed: int = 43) -> dict:
             errors = {g: got["girths"][g] - clean["girths"][g] for g in GIRTHS
                       if got.get("girths", {}).get(g) and clean.get("girths", {}).get(g)}
             rows.append({"leg": leg, "kind": f"halves_{noise:g}mm", **how, **got, "errors": errors})
-            print(leg, rows[-1]["kind"], how, got.get("share"), errors, file=sys.stderr)
-        for noise in MESH_HALVES_NOISE_MM:
-            data, how = mesh_halves(mesh, axis, noise, rng)
-            got = read(data, "stl")
-            errors = {g: got["girths"][g] - clean["girths"][g] for g in GIRTHS
-                      if got.get("girths", {}).get(g) and clean.get("girths", {}).get(g)}
-            rows.append({"leg": leg, "kind": f"mesh_halves_{noise:g}mm", **how, **got, "errors": errors})
             print(leg, rows[-1]["kind"], how, got.get("share"), errors, file=sys.stderr)
     summary = {"legs": legs, "seed": seed, "seconds": time.perf_counter() - started, "environment": environment(),
                "rows": rows}
@@ -158,7 +129,7 @@ def main(legs: int = 8, seed: int = 43) -> dict:
 def markdown(summary: dict) -> str:
     rows = summary["rows"]
     lines = [
-        "# A scan captured in parts while the leg moved (benchmarks/skin_seam.py)", "",
+        "# A cloud captured in parts while the leg moved (benchmarks/skin_seam.py)", "",
         f"`benchmarks/skin_seam.py {summary['legs']} {summary['seed']}` ({summary['seconds']:.0f} s). "
         + environment_line(summary["environment"]), "",
         f"The seam's share (app.geometry.scan.skin_seam: the slabs whose skin steps along the best path up the calf; "
@@ -186,7 +157,7 @@ def markdown(summary: dict) -> str:
     lines += ["", "Halves, per scan:", "", "| leg | kind | move mm | opening | share | step mm | largest girth error | said |",
               "|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        if "halves" not in r["kind"]:
+        if not r["kind"].startswith("halves"):
             continue
         worst = max(r.get("errors", {}).items(), key=lambda item: abs(item[1]), default=None)
         lines.append(f"| {r['leg']} | {r['kind']} | {r['move_mm']:.1f} | {r['opening']:+.2f} | "

@@ -36,9 +36,9 @@ JSON layout (``schema_version`` 3; all lengths in millimetres, ``units`` = "mm")
     fit       {mode, layers, points_per_layer, sections, angles, error_index,
                error_index_exact, error_index_diameter, error_index_exact_diameter,
                max_error_mm, mean_error_mm, n_scan_points, n_error_points, seconds,
-               stage_seconds, per_layer, d_at_window_edge, surface_to_scan, skin_layers (a
-               cloud's skin twice), skin_seam (the skin stepping along a line up the calf),
-               sparse_points_per_mm (a cloud too sparse for thin slabs: its points
+               stage_seconds, per_layer, d_at_window_edge, surface_to_scan, skin_layers and
+               skin_seam (a cloud's: its skin twice, its skin stepping along a line up the
+               calf), sparse_points_per_mm (a cloud too sparse for thin slabs: its points
                per mm of the calf's height; a thigh-high designed from it is "review")}
               surface_to_scan: the other side of E - the surface sampled densely, each
               sample's distance to the scan where the scan has data

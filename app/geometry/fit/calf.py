@@ -40,7 +40,7 @@ from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, open_arcs_failure, without_open_arcs
 from app.geometry.placement.place import LegPlacement
 from app.geometry.scan.skin_layers import skin_layers
-from app.geometry.scan.skin_seam import mesh_skin_seam, skin_seam
+from app.geometry.scan.skin_seam import skin_seam
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, LimbGraph, slice_polar, tape_band_girths, tape_girths
 from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import error_statistics
@@ -255,9 +255,9 @@ def fit_calf(
             "C and the thigh's points (E, F and the gluteal fold G) are placed on slabs up to 20 mm thick, which can "
             "move them and the lengths several mm; a denser export measures them better, or take them by tape")
     layers = skin_layers(local[in_calf]) if faces is None else None  # a cloud's skin twice (a mesh's is one surface)
-    # a scan captured in parts while the leg moved steps along the seam: a cloud read on
-    # every calf point (each window's fit needs its points), a mesh on its calf's triangles
-    seam = skin_seam(local[every_calf_point], b_mm, d_mm) if faces is None else mesh_skin_seam(local, faces, b_mm, d_mm)
+    # a cloud captured in parts while the leg moved steps along the seam: read on every
+    # calf point (each window's fit needs its points)
+    seam = skin_seam(local[every_calf_point], b_mm, d_mm) if faces is None else None
     if layers is not None and layers.doubled:
         fit_warnings.append(layers.doubled_text)
     if seam is not None and seam.moved:

@@ -49,7 +49,7 @@ class FitResult:
     sole_reason: str | None = None
     skin: SkinDistance | None = None  # surface -> scan distances (app.geometry.spline.skin_distance)
     skin_layers: SkinLayers | None = None  # a cloud's skin, one layer or two (app.geometry.scan.skin_layers)
-    #: the skin stepping along a line up the calf (app.geometry.scan.skin_seam)
+    #: a cloud's skin stepping along a line up the calf (app.geometry.scan.skin_seam)
     skin_seam: SkinSeam | None = None
     #: a cloud too sparse for thin slabs (SPARSE_CLOUD_POINTS_PER_MM): its points per mm of
     #: the calf's height (the fit warns; a thigh-high designed from it is "review")

@@ -209,7 +209,7 @@ def design_stocking(surface: NurbsSurface, landmarks: dict, side: str | None, in
     -> scan distances, app.geometry.spline.skin_distance.SkinDistance.as_dict: a surface
     standing off the skin over an arc of a ring), ``skin_layers``
     (app.geometry.scan.skin_layers.SkinLayers.as_dict: a cloud holding the skin twice),
-    ``skin_seam`` (app.geometry.scan.skin_seam.SkinSeam.as_dict: a scan whose skin steps
+    ``skin_seam`` (app.geometry.scan.skin_seam.SkinSeam.as_dict: a cloud whose skin steps
     along a line up the calf, the leg moved between the scan's parts) and,
     for a thigh-high, ``sparse_points_per_mm`` (a cloud too sparse for thin slabs: its
     thigh's points and G may be off).  An entry of another form (an imported record's) is
@@ -337,7 +337,7 @@ def _doubled_skin(skin_layers: dict | None) -> tuple[str, ...]:
 
 
 def _stepped_skin(skin_seam: dict | None) -> tuple[str, ...]:
-    """The sentence for a record fitted from a scan whose skin steps along a line up the
+    """The sentence for a record fitted from a cloud whose skin steps along a line up the
     calf (the fit's own warning, :attr:`SkinSeam.moved`): the leg moved between the parts
     of the scan, its girths may read off by up to about twice the move, and the stocking
     would be knitted loose or tight by as much."""

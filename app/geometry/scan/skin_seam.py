@@ -1,5 +1,5 @@
-"""Does a scan's skin step along a line up the leg?  A scan captured in parts while the
-leg moved.
+"""Does a point cloud's skin step along a line up the leg?  A cloud captured in parts
+while the leg moved.
 
 A scanner that takes one side of the leg and then the other (two views, or a hand-held
 sweep down the front and back up the other side) and merges the parts where they meet
@@ -39,9 +39,15 @@ the parts then overlap over the move's width and the skin bends instead of stepp
 leg reads narrower by up to twice the move); under 0.5-1 mm of noise, a part moved away
 from the other (a gap of the move's width at the seam, which a strip the scanner missed
 leaves too: a gap is no proof of a move, so it is not looked for); clouds too sparse for
-the windows (under about 0.1 points per mm^2), which are not measured.  A mesh is read on
-points drawn on its triangles (:func:`mesh_skin_seam`): a part that moved into the other
-folds its triangles back at the seam, which steps.
+the windows (under about 0.1 points per mm^2), which are not measured; and a mesh.  A
+mesh was read on points drawn by area on its calf's triangles (0.5 per mm^2) and
+measured on benchmarks/skin_seam.py 8 43 (commit be3c791, reverted): smooth meshes read
+at most 0.18 (BodyParts3D's and the Visible Human legs 0-0.12), but a mesh with 0.3-1 mm of
+noise on its vertices read 0.90 (7 of 8 said) and a coarse one 0.80-0.95 (8 of 8).
+Points drawn on one facet share its vertices' noise and its flatness, so the standard
+error, which takes the points as independent, is far too small, and a polyhedron's edges
+bend the parabolas by more than STEP_MM: the test's statistics do not hold for a mesh.
+Of the meshes with one half moved, 8 of the 12 that fitted were said.
 
 Units: mm.  Frame: the calf frame (z up the leg).  Arrays: points (n, 3).
 """
@@ -52,7 +58,6 @@ from dataclasses import dataclass
 from math import comb
 
 import numpy as np
-import trimesh
 
 #: slab thickness and angular bin, mm and degrees.  A moved part's seam runs straight up
 #: the leg, so a thicker slab gives each side's fit more points at no cost to the step:
@@ -90,15 +95,11 @@ MEASURED_SHARE = 0.5
 #: 0.15-0.87 with 0.5 mm and 0.19-0.91 with 1 mm (a seam the noise hides, or one that
 #: bends instead of stepping: module docstring)
 SEAM_SHARE = 0.5
-#: a mesh is read on points drawn on its calf's triangles, this many per mm^2 of skin (a
-#: calf of 80,000 mm^2: 40,000 points, 40-60 per window side) and at most MAX_MESH_SAMPLES
-MESH_SAMPLES_PER_MM2 = 0.5
-MAX_MESH_SAMPLES = 60_000
 
 
 @dataclass(frozen=True)
 class SkinSeam:
-    """Where a scan's skin steps along a line up the leg (module docstring)."""
+    """Where a cloud's skin steps along a line up the leg (module docstring)."""
 
     share: float  # the stepping edges on the seam over the slabs measured
     step_mm: float  # the median jump where the seam steps (nan without any)
@@ -128,7 +129,7 @@ class SkinSeam:
     @property
     def moved_text(self) -> str:
         """The fit's warning, in words."""
-        return (f"the scan's skin steps by about {self.step_mm:.1f} mm along a line up the leg, over "
+        return (f"the cloud's skin steps by about {self.step_mm:.1f} mm along a line up the leg, over "
                 f"{self.share:.0%} of the {self.length_mm:.0f} mm measured: the scanner captured the leg in parts "
                 "(one side, then the other) and the leg moved in between; a tape across the seam reads the girths "
                 "off by up to about twice the move, and the points placed on the girth profile (E, F, G) may move "
@@ -226,26 +227,6 @@ def _most_stepping_path(stepping: np.ndarray) -> tuple[int, np.ndarray]:
     for k in range(n_slabs - 1, 0, -1):
         path[k - 1] = (path[k] - came[k, path[k]]) % n_bins
     return int(score.max()), path
-
-
-def mesh_skin_seam(points: np.ndarray, faces: np.ndarray, low_mm: float, high_mm: float) -> SkinSeam | None:
-    """The seam of a mesh (points (n, 3) calf-frame mm, faces (f, 3)) between ``low_mm``
-    and ``high_mm``: :func:`skin_seam` of points drawn by area on its triangles there,
-    MESH_SAMPLES_PER_MM2 of them (at most MAX_MESH_SAMPLES; trimesh's
-    ``sample.sample_surface`` with a fixed seed, so that one upload reads one seam).  A
-    scanner that meshes a leg captured in parts while it moved leaves the step in its
-    surface (the triangles across the seam stand steep or fold back), which its vertices,
-    often sparser than a window needs, would not show."""
-    z = points[:, 2][faces]
-    faces = faces[(z.max(axis=1) >= low_mm) & (z.min(axis=1) <= high_mm)]
-    if not len(faces):
-        return None
-    calf = trimesh.Trimesh(points, faces, process=False)
-    count = int(min(calf.area * MESH_SAMPLES_PER_MM2, MAX_MESH_SAMPLES))
-    if count < 4 * MIN_SIDE_POINTS:
-        return None
-    samples, _ = trimesh.sample.sample_surface(calf, count, seed=0)
-    return skin_seam(np.asarray(samples), low_mm, high_mm)
 
 
 def skin_seam(points: np.ndarray, low_mm: float, high_mm: float) -> SkinSeam | None:
