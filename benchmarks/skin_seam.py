@@ -10,7 +10,10 @@ benchmarks/corpus) is read as:
 
 - every cloud kind of the robustness corpus (benchmarks/corpus/cases.py: clean, noisy,
   stray points, one side sparser, holes, a floor, a tessellation's vertices, a body's,
-  cropped): one skin, no seam - a seam said is a false alarm;
+  cropped), and clouds of 100k points drawn on the facets of its coarse meshes and of its
+  meshes with noisy vertices (``*_facets``: a scanner that exports points resampled from
+  its own mesh; their noise is not independent from point to point): one skin, no seam -
+  a seam said is a false alarm;
 - ``halves``: a cloud (40-120k points by area, as benchmarks/motion.py draws) whose
   points on one side of a plane along the leg, through its middle, moved 2-6 mm across
   the leg in a random direction, with 0, 0.5 or 1 mm of noise per coordinate.  Its
@@ -52,6 +55,8 @@ from benchmarks.provenance import environment, environment_line  # noqa: E402
 RESULTS = ROOT / "benchmarks" / "results"
 CLOUD_KINDS = ("cloud", "cloud_noise", "cloud_outliers", "cloud_uneven", "cloud_holes", "floor_cloud", "vertex_cloud",
                "knee_high_cloud", "ankle_to_thigh_cloud", "body_vertices", "sparse_leg_vertices")
+#: meshes whose facets a cloud is drawn on: coarse ones, and ones with noisy vertices
+FACET_KINDS = ("coarse_mesh", "noise")
 HALVES_NOISE_MM = (0.0, 0.5, 1.0)
 GIRTHS = ("B", "B1", "C", "D")
 #: a halves scan whose girths are more than this off the clean mesh's must say so
@@ -91,6 +96,15 @@ def halves(mesh: trimesh.Trimesh, axis: np.ndarray, noise_mm: float, rng: np.ran
     return as_cloud(degrade.cloud_noise(cloud, noise_mm, rng))[0], {"move_mm": move, "opening": float(across @ normal)}
 
 
+def facets_cloud(kind: str, seed: int, subject: int, rng: np.random.Generator) -> tuple[bytes, str | None]:
+    """100k points drawn by area on the facets of the corpus's ``kind`` mesh (in mm) as a
+    PLY cloud, and the side to ask for."""
+    case = build_case(CaseSpec(f"seam-{kind}-facets", kind, seed, subject))
+    scan = load_scan(case.data, file_type=case.file_type, units=case.units)
+    mesh = trimesh.Trimesh(scan.points_mm, scan.faces, process=False)
+    return as_cloud(degrade.sample_cloud(mesh, 100_000, rng))[0], case.side
+
+
 def main(legs: int = 8, seed: int = 43) -> dict:
     rng = np.random.default_rng(seed)
     started = time.perf_counter()
@@ -108,6 +122,10 @@ def main(legs: int = 8, seed: int = 43) -> dict:
             side = "right" if kind == "body_vertices" else None  # a body's two legs: one asked for
             rows.append({"leg": leg, "kind": kind, **read(case.data, case.file_type, case.units, side)})
             print(leg, kind, rows[-1].get("share"), file=sys.stderr)
+        for kind in FACET_KINDS:
+            data, side = facets_cloud(kind, int(rng.integers(2**31)), subject, rng)
+            rows.append({"leg": leg, "kind": f"{kind}_facets", **read(data, "ply", "mm", side)})
+            print(leg, rows[-1]["kind"], rows[-1].get("share"), file=sys.stderr)
         mesh, axis, _ = clean_leg(int(rng.integers(2**31)), subject)
         clean = read(mesh.export(file_type="stl"), "stl")
         for noise in HALVES_NOISE_MM:
