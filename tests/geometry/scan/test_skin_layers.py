@@ -10,12 +10,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
-from app.geometry.garment.design import DesignInputs, design_stocking
-from app.geometry.garment.fabric import Fabric
-from app.geometry.scan.reader import load_scan
 from app.geometry.scan.skin_layers import BIMODAL_COEFFICIENT, DOUBLED_MM, SkinLayers, skin_layers
-from app.records.codec import record_from_fit
 from tests.conftest import REAL
 
 
@@ -55,31 +50,22 @@ def test_too_few_points_are_not_measured():
     assert skin_layers(np.random.default_rng(0).normal(size=(100, 3))) is None
 
 
-def test_the_fit_warns_about_a_doubled_cloud_and_not_about_a_single_one(leg_cloud, tmp_path):
+def test_the_fit_warns_about_a_doubled_cloud_and_not_about_a_single_one(leg_cloud, cloud_verdict):
     """... and the record keeps the layers (``fit.skin_layers``), so a stocking designed
     from a doubled cloud's record is for review, naming why; a single layer's is judged
     on its checks alone."""
     first, second = leg_cloud
     for name, points, doubled in (("single", first, False), ("twice", np.vstack([first[:30_000], second + [5.0, 0, 0]]), True)):
-        path = tmp_path / f"{name}.ply"
-        trimesh.PointCloud(points).export(path)
-        scan = load_scan(path)
-        fit = fit_scan(scan, placement=check_scan(scan, FitOptions()))
-        warned = [w for w in fit.warnings if "holds the skin twice" in w]
+        read = cloud_verdict(points, name)
+        warned = [w for w in read.fit.warnings if "holds the skin twice" in w]
         assert bool(warned) is doubled
         if doubled:
             wide = float(re.search(r"up to (\d+) mm wide", warned[0]).group(1))
             assert 8.0 <= wide <= 12.0  # twice the layers' ~5 mm
-        record = record_from_fit(fit, scan.source_format, scan.units)
-        assert record.fit["skin_layers"]["doubled"] is doubled
-        design = design_stocking(record.surface, record.landmarks, "right",
-                                 DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
-                                 record.fit)
-        verdict, reasons = design.verdict
-        said = [r for r in reasons if "holds the skin twice" in r and "by tape" in r]
-        assert bool(said) is doubled
+        assert read.record.fit["skin_layers"]["doubled"] is doubled
+        assert bool([r for r in read.reasons if "holds the skin twice" in r and "by tape" in r]) is doubled
         if doubled:
-            assert verdict in ("review", "fail")
+            assert read.verdict in ("review", "fail")
     # a record imported from elsewhere carries its fit as it likes: no such dict is no reason
     for junk in ("two", {"bimodality": "x"}, {"bimodality": 0.9}):
         assert SkinLayers.from_dict(junk) is None

@@ -9,12 +9,7 @@ import numpy as np
 import pytest
 import trimesh
 
-from app.geometry.fit.pipeline import FitOptions, check_scan, fit_scan
-from app.geometry.garment.design import DesignInputs, design_stocking
-from app.geometry.garment.fabric import Fabric
-from app.geometry.scan.reader import load_scan
 from app.geometry.scan.skin_seam import SEAM_SHARE, SkinSeam, skin_seam
-from app.records.codec import record_from_fit
 from tests.conftest import REAL
 
 
@@ -61,27 +56,18 @@ def test_a_cloud_too_sparse_or_too_short_is_not_measured(calf_cloud):
     assert skin_seam(points, low, low + 20.0) is None
 
 
-def test_the_fit_warns_about_a_moved_half_and_the_design_asks_for_tape(calf_cloud, tmp_path):
+def test_the_fit_warns_about_a_moved_half_and_the_design_asks_for_tape(calf_cloud, cloud_verdict):
     """The record keeps the seam (``fit.skin_seam``), so a stocking designed from a moved
     cloud's record is for review, naming why; the single cloud's is judged on its checks
     alone."""
     points, _ = calf_cloud
     for name, cloud, moved in (("single", points, False), ("halves", _half_moved(points, [5.0, 0.0, 0.0]), True)):
-        path = tmp_path / f"{name}.ply"
-        trimesh.PointCloud(cloud).export(path)
-        scan = load_scan(path)
-        fit = fit_scan(scan, placement=check_scan(scan, FitOptions()))
-        assert bool([w for w in fit.warnings if "skin steps by about" in w]) is moved
-        record = record_from_fit(fit, scan.source_format, scan.units)
-        assert record.fit["skin_seam"]["moved"] is moved
-        design = design_stocking(record.surface, record.landmarks, "right",
-                                 DesignInputs(compression_class="II", fabric=Fabric.linear(10.0)), record.chart,
-                                 record.fit)
-        verdict, reasons = design.verdict
-        said = [r for r in reasons if "skin steps" in r and "by tape" in r]
-        assert bool(said) is moved
+        read = cloud_verdict(cloud, name)
+        assert bool([w for w in read.fit.warnings if "skin steps by about" in w]) is moved
+        assert read.record.fit["skin_seam"]["moved"] is moved
+        assert bool([r for r in read.reasons if "skin steps" in r and "by tape" in r]) is moved
         if moved:
-            assert verdict in ("review", "fail")
+            assert read.verdict in ("review", "fail")
     # a record imported from elsewhere carries its fit as it likes: no such dict is no reason
     for junk in ("seam", {"share": "x"}, {"share": 0.9}):
         assert SkinSeam.from_dict(junk) is None
