@@ -150,6 +150,27 @@ class SkinSeam:
                 "with them; scan again with the leg still, or take the girths by tape")
 
 
+def _window_sums(moments: np.ndarray, side: int, shifted: bool = True) -> np.ndarray:
+    """The sums over each edge's window on ``side`` (1: the counter-clockwise side's bins
+    j ... j + WINDOW_BINS - 1 of edge j, between bins j - 1 and j; -1: the other's) of
+    per-bin moments (p, slabs, bins): ``moments[k]`` the sums of u^k w about each bin's
+    centre (u in bins), given back about the edge - (u + a)^k expanded binomially, a the
+    bin centre's offset from the edge - or, ``shifted`` False, summed as they are."""
+    total = np.zeros_like(moments)
+    powers = np.arange(len(moments))
+    binomial = np.array([[comb(int(k), int(j)) for j in powers] for k in powers], dtype=np.float64)
+    for o in range(WINDOW_BINS):
+        roll, a = (-o, o + 0.5) if side == 1 else (o + 1, -(o + 0.5))
+        rolled = np.roll(moments, roll, axis=2)
+        if not shifted:
+            total += rolled
+            continue
+        # T[k, j] = C(k, j) a^(k - j), zero above the diagonal: sum_j T[k, j] moments[j] = sum (u + a)^k w
+        shift = np.tril(binomial * float(a) ** np.maximum(powers[:, None] - powers[None, :], 0))
+        total += np.einsum("kj,jsb->ksb", shift, rolled)
+    return total
+
+
 def _edge_jumps(points: np.ndarray, low_mm: float, high_mm: float) -> tuple[np.ndarray, np.ndarray]:
     """(slabs, bins) jumps of the radius at each bin edge (mm, the counter-clockwise side
     less the clockwise side, NaN where a side has too few points) and their standard
@@ -177,31 +198,15 @@ def _edge_jumps(points: np.ndarray, low_mm: float, high_mm: float) -> tuple[np.n
     def summed(weights: np.ndarray) -> np.ndarray:
         return np.bincount(cell, weights=weights, minlength=n_slabs * n_bins).reshape(n_slabs, n_bins)
 
-    u_powers = [summed(u**k) for k in range(2 * deg + 1)]
-    u_radius = [summed(u**k * radius) for k in range(deg + 1)]
-    u_height = [summed(u**k * height) for k in range(deg + 1)]
-    hh, hr, rr = summed(height * height), summed(height * radius), summed(radius * radius)
+    u_powers = np.stack([summed(u**k) for k in range(2 * deg + 1)])  # (2 deg + 1, slabs, bins)
+    u_radius = np.stack([summed(u**k * radius) for k in range(deg + 1)])
+    u_height = np.stack([summed(u**k * height) for k in range(deg + 1)])
+    plain = np.stack([summed(height * height), summed(height * radius), summed(radius * radius)])
     intercept, variance = {}, {}
     n_basis = deg + 2  # 1, u, ..., u^deg, z
     for side in (1, -1):
-        U = [np.zeros((n_slabs, n_bins)) for _ in range(2 * deg + 1)]
-        UR = [np.zeros((n_slabs, n_bins)) for _ in range(deg + 1)]
-        UH = [np.zeros((n_slabs, n_bins)) for _ in range(deg + 1)]
-        HH, HR, RR = (np.zeros((n_slabs, n_bins)) for _ in range(3))
-        for o in range(WINDOW_BINS):
-            # edge j (between bins j-1 and j): the counter-clockwise side's bins j + o, the other's j - 1 - o
-            shift, a = (-o, o + 0.5) if side == 1 else (o + 1, -(o + 0.5))
-            rolled = [np.roll(m, shift, axis=1) for m in u_powers]
-            for k in range(2 * deg + 1):
-                U[k] += sum(comb(k, j) * a ** (k - j) * rolled[j] for j in range(k + 1))
-            rolled_r = [np.roll(m, shift, axis=1) for m in u_radius]
-            rolled_h = [np.roll(m, shift, axis=1) for m in u_height]
-            for k in range(deg + 1):
-                UR[k] += sum(comb(k, j) * a ** (k - j) * rolled_r[j] for j in range(k + 1))
-                UH[k] += sum(comb(k, j) * a ** (k - j) * rolled_h[j] for j in range(k + 1))
-            HH += np.roll(hh, shift, axis=1)
-            HR += np.roll(hr, shift, axis=1)
-            RR += np.roll(rr, shift, axis=1)
+        U, UR, UH = (_window_sums(m, side) for m in (u_powers, u_radius, u_height))
+        HH, HR, RR = _window_sums(plain, side, shifted=False)
         normal = np.empty((n_slabs, n_bins, n_basis, n_basis))
         rhs = np.empty((n_slabs, n_bins, n_basis))
         for i in range(deg + 1):
