@@ -37,6 +37,21 @@ def test_a_surface_on_the_skin_is_measured_near_zero_on_a_mesh_and_a_cloud(skin)
     assert on_cloud.p99_mm < 2.0 and not on_cloud.off_skin
 
 
+def test_a_mesh_rounded_to_a_grid_is_measured_on_every_sample(skin):
+    """A scanner or exporter that writes its vertices to 2 mm collapses most of this
+    tube's small triangles (two corners on one point, or three on a line): the closest
+    point of such a triangle is on its edges, not NaN (which dropped samples and crashed
+    the fit of a generated leg rounded to 2 mm)."""
+    vertices, faces = skin
+    rounded = np.round(vertices / 2.0) * 2.0
+    corners = rounded[faces]
+    flat = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1) < 1e-9
+    assert flat.mean() > 0.3  # the case: many degenerate triangles
+    result = surface_to_scan(_tube_surface(50.0 / np.cos(np.pi / 24) ** 0.5), rounded, faces, 0.0, 300.0)
+    assert result.coverage == pytest.approx(1.0) and result.n_samples > 0
+    assert result.p99_mm < 1.0 + np.sqrt(3.0) and not result.off_skin  # the grid moves a vertex up to sqrt(3) mm
+
+
 def test_an_arc_off_the_skin_is_found_and_located(skin):
     vertices, faces = skin
     result = surface_to_scan(_tube_surface(50.0, bulge=12.0), vertices, faces, 0.0, 300.0)

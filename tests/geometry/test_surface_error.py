@@ -33,6 +33,23 @@ def test_point_triangle_distance_in_every_voronoi_region():
     assert np.allclose(many[:, 0], exact)
 
 
+def test_a_degenerate_triangle_is_measured_as_its_edges():
+    """Rounding a mesh's vertices to a grid collapses triangles: two corners on one point
+    (an edge of zero length, whose parameter is 0/0) or three on a line (no face).  Each is
+    measured as the nearest of its edges - never NaN, which dropped samples and crashed
+    the fit of a mesh rounded to 2 mm."""
+    rng = np.random.default_rng(8)
+    points = rng.uniform(-6.0, 16.0, (200, 3))
+    a, b = np.array([0.0, 0.0, 0.0]), np.array([10.0, 2.0, 1.0])
+    for corners in ((a, a, b), (a, b, b), (b, a, a), (a, (a + b) / 2, b), (a, b, (a + b) / 2), (a, a, a)):
+        exact = se.point_triangle_distances(points, *corners)
+        along = np.linspace(0.0, 1.0, 2001)[:, None]
+        ends = np.vstack([corners[i] + along * (corners[j] - corners[i]) for i, j in ((0, 1), (1, 2), (2, 0))])
+        brute = np.linalg.norm(points[:, None, :] - ends[None, :, :], axis=2).min(axis=1)
+        assert np.all(np.isfinite(exact)), corners
+        assert np.all(exact <= brute + 1e-9) and np.max(brute - exact) < 0.01, corners
+
+
 def _cylinder(radius: float, length: float) -> NurbsSurface:
     """An exact rational circular cylinder (9-point circle, The NURBS Book 7.5), u around
     (periodic in the open form the records use), v along z from 0 to ``length``."""

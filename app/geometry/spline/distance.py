@@ -82,7 +82,12 @@ def point_triangle_offsets(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nd
     (..., 3) mm (Ericson 5.1.5, vectorized).
 
     The Voronoi region of the closest feature (vertex, edge or face) is chosen on arrays
-    of barycentric weights (v, w) with closest point ``a + v*ab + w*ac``.
+    of barycentric weights (v, w) with closest point ``a + v*ab + w*ac``.  A degenerate
+    triangle (a mesh whose vertices were rounded to a grid collapses some: two corners
+    on one point, or three on a line) has no face region and an edge of zero length,
+    whose parameter is 0/0; Ericson's regions assume a face, so such a triangle (its
+    squared doubled area |ab x ac|^2 = |ab|^2 |ac|^2 - (ab.ac)^2 under 1e-12 of
+    |ab|^2 |ac|^2) is measured as the nearest of its three segments.
     """
     ab, ac, ap = b - a, c - a, p - a
     d1 = _dot(ab, ap)
@@ -113,7 +118,22 @@ def point_triangle_offsets(p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.nd
     for condition, rv, rw in reversed(regions):
         v = np.where(condition, rv, v)
         w = np.where(condition, rw, w)
-    return ap - v[..., None] * ab - w[..., None] * ac
+    offsets = ap - v[..., None] * ab - w[..., None] * ac
+    flat = np.broadcast_to(ab_ab * ac_ac - ab_ac**2 <= 1e-12 * ab_ab * ac_ac, offsets.shape[:-1])
+    if flat.any():  # a degenerate triangle: the nearest of its segments
+        offsets = np.array(offsets)
+        p_, a_, b_, c_ = (np.broadcast_to(x, offsets.shape)[flat] for x in (p, a, b, c))
+        edges = np.stack([_segment_offsets(p_, a_, b_), _segment_offsets(p_, b_, c_), _segment_offsets(p_, c_, a_)])
+        offsets[flat] = np.take_along_axis(edges, np.argmin(_dot(edges, edges), axis=0)[None, :, None], axis=0)[0]
+    return offsets
+
+
+def _segment_offsets(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k, 3): p minus its closest point on the segment a-b, (k, 3) arrays, mm (a segment of
+    zero length is its point a)."""
+    ab = b - a
+    t = np.clip(_dot(p - a, ab) / np.maximum(_dot(ab, ab), np.finfo(float).tiny), 0.0, 1.0)
+    return p - a - t[:, None] * ab
 
 
 #: the 2 x 2 quads around a grid vertex, as (row, column) origins in its 3 x 4 neighbourhood
