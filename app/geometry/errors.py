@@ -129,11 +129,14 @@ class JoinedAboveCalf(FitFailure):
     girth up 25% within 5 mm: the thigh of a bent knee, the other leg, a hand;
     app.geometry.anatomy.calf_candidates.merged_above).  It outranks a partial view
     inferred from arcs (:class:`BridgedStrip`, a guess: a join read through diagonal
-    sections looks like a strip's arcs) and yields to a knee found bent.  Crosses a
+    sections looks like a strip's arcs) and yields to a knee found bent.  ``over_join``:
+    the bulge read as the calf lies above the join (its sections are not the leg's
+    alone; the "ankle" under it may be the leg narrowing into the join).  Crosses a
     process boundary as a plain :class:`FitFailure`."""
 
-    def __init__(self, detail: str):
+    def __init__(self, detail: str, over_join: bool = False):
         super().__init__(FailureReason.NO_KNEE, detail)
+        self.over_join = over_join
 
 
 class RisesToEdge(FitFailure):

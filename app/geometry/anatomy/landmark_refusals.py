@@ -77,13 +77,15 @@ def knee_unreadable(at_mm: float, rise: float, above: str = "the calf maximum") 
     """The leg's sections widen by ``rise`` (a fraction) within a few mm ``at_mm`` above
     ``above`` (the calf maximum, or the ankle) while the leg below still narrows or has
     no knee waist: another body part joins them, and the knee waist lies among sections
-    that are not the leg's alone."""
+    that are not the leg's alone.  Read from the ankle, the join lies under the bulge
+    taken for the calf (:attr:`JoinedAboveCalf.over_join`)."""
     return JoinedAboveCalf(
         "the knee waist (D, the narrowest part of the leg below the knee) could not be found: "
         f"{at_mm:.0f} mm above {above} the leg's cross-sections widen by {100 * rise:.0f}% within a few "
         "millimetres - another body part joins them there (the thigh of a bent knee, the other leg, a hand) - "
         "and below that the leg has no knee waist. Scan the leg standing, with the other leg and the hands clear "
         "of it from the ankle to above the knee.",
+        over_join=above == "the ankle",
     )
 
 
