@@ -14,8 +14,9 @@ Steps (mm throughout):
 3. each candidate is placed by :func:`app.geometry.placement.leg_axis.place_candidate`: the
    shank's axis (for a bent knee, cut free of the thigh), B, C, D along it, anterior;
 4. the legs found: none - the failure of the largest candidate; copies of one leg (two
-   passes of a scanner not merged, :func:`one_copy_per_leg`) - the copy with the most
-   points, warned about; one - it; several - the one named by ``side``, or
+   passes of a scanner not merged, a hollowed mesh's inner wall:
+   :func:`app.geometry.placement.leg_copies.one_copy_per_leg`) - the outer copy with the
+   most points, warned about; one - it; several - the one named by ``side``, or
    :data:`FailureReason.SEVERAL_LEGS` listing them;
 5. a single leg's side, when not given: from its foot (:mod:`app.geometry.anatomy.side`).
 """
@@ -25,14 +26,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 from app.geometry.anatomy.other_leg import other_leg_beside, other_leg_confirmed
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
+from app.geometry.placement.leg_copies import one_copy_per_leg
 from app.geometry.placement.leg_pairs import split_legs
 from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
 from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan
@@ -47,11 +47,6 @@ CONTRADICTED_SIDE_CONFIDENCE = 0.9
 #: (ANSUR II: lateral malleolus to tibiale is at least ~300 mm)
 MIN_LEG_LENGTH_MM = 200.0
 
-#: two legs whose ankles (B's centres) and calf maxima (C's centres) both lie closer than
-#: this are one leg scanned twice, mm: two legs cannot interpenetrate, so two people's or
-#: one person's two legs have their centres at least two section radii apart, and the
-#: thinnest ankle's radius is 25 mm (ANSUR II's least ankle girth, 156 mm, over 2 pi)
-SAME_LEG_MM = 25.0
 
 
 @dataclass(frozen=True)
@@ -182,36 +177,6 @@ def _sides_of(legs: list[tuple[_Candidate, LegPlacement]]) -> list[str]:
     order = np.argsort(along)
     sides[order[0]], sides[order[-1]] = "left", "right"
     return sides
-
-
-def one_copy_per_leg(legs: list[tuple[_Candidate, LegPlacement]]) -> tuple[list[tuple[_Candidate, LegPlacement]], list[str]]:
-    """The legs found with each leg once, and what was set aside, in words.
-
-    Two placed candidates are copies of one leg when their B centres and their C centres
-    (B + C's height along the calf axis) are both within :data:`SAME_LEG_MM`: the passes
-    of a scanner exported unmerged, or a leg that moved between them, give two
-    overlapping shells that clean-up reads as two pieces.  Each copy is a whole leg (it
-    was placed: ankle, calf and knee waist), so the copy with the most points is measured
-    and the others are named in a warning; calling them two legs would ask for a side
-    that does not exist.  Placements in scan mm.
-    """
-    centres = np.array([[p.origin_mm, np.asarray(p.origin_mm) + p.c_mm * np.asarray(p.rotation)[2]] for _, p in legs])
-    apart = np.linalg.norm(centres[:, None] - centres[None, :], axis=-1).max(axis=-1)  # (n, n) the farther of B, C
-    # copies of copies are one leg too: the groups are the graph's connected components
-    n_groups, copy_of = connected_components(csr_matrix(apart < SAME_LEG_MM), directed=False)
-    kept, warnings = [], []
-    for group in range(n_groups):  # a few legs
-        members = np.flatnonzero(copy_of == group)
-        best = max(members, key=lambda m: legs[m][0].n_points)
-        kept.append(legs[best])
-        if len(members) > 1:
-            offset = max(float(apart[best, m]) for m in members if m != best)
-            warnings.append(
-                f"the scan holds this leg {len(members)} times, up to {offset:.0f} mm apart (the passes of a scanner "
-                "exported without being merged, or the leg moved between them): it was measured on the copy with the "
-                f"most points ({legs[best][0].n_points} of {sum(legs[m][0].n_points for m in members)}); export the "
-                "merged scan, or scan again standing still, if the copies differ")
-    return kept, warnings
 
 
 def _scan_round_leg(clean: CleanScan, placement: LegPlacement) -> tuple[np.ndarray, float]:
