@@ -127,6 +127,38 @@ def test_noisy_point_cloud_is_fitted_across_gaps():
     assert error[:, in_gap].max() < 1.0  # bridged smoothly where there are none
 
 
+def _open_tube(radius: float, heights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A round tube of ``radius`` mm over ``heights`` (k,), its ends open: vertices, faces."""
+    tube = tube_mesh(heights, np.full(len(heights), radius), np.full(len(heights), radius))
+    sides = tube.faces[(tube.faces < len(heights) * 256).all(axis=1)]  # the caps' faces name the centres
+    return np.asarray(tube.vertices), sides
+
+
+def test_a_wall_inside_the_skin_is_no_part_of_the_tape():
+    """A mesh hollowed for 3D printing: the skin (a tube of radius 50 mm) and a wall 3 mm
+    inside it, joined at both open ends by rims (one connected surface, as a solidify
+    gives it).  The tape reads the skin's girth, not a mix of both walls (it read 2 pi x
+    1.5 mm short of it), and the skin alone reads the same."""
+    heights = np.arange(0.0, 301.0, 2.0)
+    skin, faces = _open_tube(50.0, heights)
+    wall = skin * np.array([47.0 / 50.0, 47.0 / 50.0, 1.0])
+    n = len(skin)
+    ring = np.arange(256)
+    rims = [np.column_stack([end + (ring + 1) % 256, end + ring, end + ring + n]) for end in (0, n - 256)]
+    rims += [np.column_stack([end + (ring + 1) % 256, end + ring + n, end + (ring + 1) % 256 + n]) for end in (0, n - 256)]
+    shell_faces = np.vstack([faces, faces[:, ::-1] + n, *rims])
+    shell = np.vstack([skin, wall])
+    at = np.array([60.0, 150.0, 240.0])
+    alone = tape_girths(skin, faces, at)
+    assert np.allclose(alone, 2 * np.pi * 50.0, rtol=1e-3)
+    assert np.allclose(tape_girths(shell, shell_faces, at), alone, atol=1e-6)
+    # a hole in the skin leaves its arcs outermost where they face out: still the skin's girth
+    centres = skin[faces].mean(axis=1)
+    hole = (np.arctan2(centres[:, 1], centres[:, 0]) > 0.5) & (np.arctan2(centres[:, 1], centres[:, 0]) < 1.0)
+    holed = faces[~(hole & (np.abs(centres[:, 2] - 150.0) < 20.0))]
+    assert abs(tape_girths(skin, holed, np.array([150.0]))[0] - alone[1]) < 1.0
+
+
 def test_polygon_perimeter_of_a_square_in_polar_form():
     angles = np.array([0, 0.5, 1.0, 1.5]) * np.pi
     assert np.isclose(polygon_perimeter(np.ones(4), angles), 4 * np.sqrt(2))

@@ -64,7 +64,7 @@ def tape_sections(points: np.ndarray, faces: np.ndarray | None, heights: np.ndar
     """
     heights = np.asarray(heights, dtype=np.float64)
     if faces is not None and len(faces):
-        plane, seg = mesh_section_segments(points, faces, heights)
+        plane, seg = mesh_section_segments(points, faces, heights, outer_only=True)
         sections = _on_planes(seg.reshape(-1, 2), np.repeat(plane, 2), heights, 360)
         holed = holed_sections(plane, seg, len(heights))
         if not holed.any():

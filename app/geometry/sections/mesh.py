@@ -25,6 +25,8 @@ Units: millimetres throughout.
 from __future__ import annotations
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from app.geometry.sections.polar import PolarSections, largest_gap, plane_pairs, polygon_centroid, ray_angles
 
@@ -46,7 +48,7 @@ AXIAL_FILL_SPAN_MM = 60.0
 
 
 def mesh_section_segments(
-    vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray
+    vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, outer_only: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
     """Intersect a triangle mesh with the planes ``z = heights`` all at once.
 
@@ -56,6 +58,8 @@ def mesh_section_segments(
     Parameters
     ----------
     vertices : (n, 3) float, mm.  faces : (f, 3) int.  heights : (k,) ascending.
+    outer_only : keep only the segments of each section's outer contours
+        (:func:`outer_contours`: a wall inside the skin left out).
 
     Returns
     -------
@@ -99,7 +103,59 @@ def mesh_section_segments(
     segments[:, 0, 1] = ya + tb * (y[ib] - ya)
     segments[:, 1, 0] = xa + tc * (x[ic] - xa)
     segments[:, 1, 1] = ya + tc * (y[ic] - ya)
+    if outer_only:
+        # each end is where the plane crosses a mesh edge: (plane, edge) names it, and the
+        # segments sharing ends chain into the section's contours
+        n = np.int64(len(vertices))
+        ends = np.column_stack([np.minimum(ia, ib) * n + np.maximum(ia, ib), np.minimum(ia, ic) * n + np.maximum(ia, ic)])
+        keep = outer_contours(plane, segments, ends, len(heights))
+        plane, segments = plane[keep], segments[keep]
     return plane, segments
+
+
+#: the rays from a section's centroid a contour must be outermost on to be skin
+#: (:func:`outer_contours`; the hole test's 5 degrees)
+OUTER_CONTOUR_RAYS = 72
+
+
+def outer_contours(plane: np.ndarray, seg: np.ndarray, ends: np.ndarray, k: int) -> np.ndarray:
+    """(s,) bool: the segments of the contours that are the outermost hit of at least
+    one of :data:`OUTER_CONTOUR_RAYS` rays from their section's centroid.
+
+    plane (s,), seg (s, 2, 2) mm as :func:`mesh_section_segments` gives them over k
+    planes; ends (s, 2) int: a key per end naming the mesh edge it lies on (two segments
+    sharing a key in one plane meet there).  The contours are the connected components
+    of the segments joined at shared ends (scipy.sparse.csgraph).  A tape reaches round
+    the skin: a contour wholly inside another - the inner wall of a mesh hollowed or
+    given a wall for 3D printing, an interior fragment - touches no ray's outermost
+    hit and is no part of the skin's section.  The skin's own contour (or, across a
+    hole, each of its open pieces) is outermost where it faces out.  Mesh sections
+    read their radii on the outermost hits already (:func:`_cast_rays`); this is for
+    readings of the segments themselves (a tape's robust polar fit of their ends), where
+    an inner wall 3 mm in read every girth 10 mm short.
+    """
+    if not len(plane):
+        return np.zeros(0, dtype=bool)
+    # one node per (plane, edge) crossing
+    _, node = np.unique(ends * np.int64(k) + plane[:, None], return_inverse=True)
+    node = node.reshape(-1, 2)
+    graph = csr_matrix((np.ones(len(node)), (node[:, 0], node[:, 1])), shape=(int(node.max()) + 1,) * 2)
+    n_contours, contour_of_node = connected_components(graph, directed=False)
+    contour = contour_of_node[node[:, 0]]  # (s,)
+    plane_of_contour = np.zeros(n_contours, dtype=np.int64)
+    plane_of_contour[contour] = plane
+    several = np.bincount(plane_of_contour, minlength=k)[plane] > 1  # (s,) in a plane of 2+ contours
+    if not several.any():  # one contour a plane (a whole skin's section): nothing inside it
+        return np.ones(len(plane), dtype=bool)
+    tested = np.flatnonzero(several)
+    seg_idx, flat, r = _ray_hits(plane[tested], seg[tested], np.nan_to_num(_segment_centroids(plane, seg, k)),
+                                 OUTER_CONTOUR_RAYS)
+    order = np.lexsort((r, flat))
+    last = np.r_[flat[order][1:] != flat[order][:-1], True]  # the outermost hit of each (plane, ray)
+    outer = np.ones(n_contours, dtype=bool)
+    outer[contour[tested]] = False
+    outer[contour[tested[seg_idx[order][last]]]] = True
+    return outer[contour]
 
 
 def _fill_along_axis(radii: np.ndarray, heights: np.ndarray, origins: np.ndarray, angles: np.ndarray) -> np.ndarray:
@@ -171,6 +227,18 @@ def _cast_rays(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray, n_angl
     plane (s,), seg (s, 2, 2) segments; centroids (k, 2) ray origins -> (k, n_angles).
     """
     k = len(centroids)
+    seg_idx, flat, r = _ray_hits(plane, seg, centroids, n_angles)
+    best = np.full(k * n_angles, -np.inf)
+    np.maximum.at(best, flat, r)
+    best[~np.isfinite(best) | (best <= 0)] = np.nan
+    return best.reshape(k, n_angles)
+
+
+def _ray_hits(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray,
+              n_angles: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every (segment, ray) hit: the segment (h,), its (section, ray) as section *
+    n_angles + ray (h,) and the hit's radius (h,) mm, for rays from each section's
+    centroid (k, 2) (plane (s,), seg (s, 2, 2) as :func:`_cast_rays` takes them)."""
     a = seg[:, 0] - centroids[plane]
     b = seg[:, 1] - centroids[plane]
     theta_a = np.arctan2(a[:, 1], a[:, 0])
@@ -191,11 +259,7 @@ def _cast_rays(plane: np.ndarray, seg: np.ndarray, centroids: np.ndarray, n_angl
         t = -(dx * ay - dy * ax) / denom
     t = np.clip(np.nan_to_num(t, nan=0.5), 0.0, 1.0)
     r = dx * (ax + t * abx) + dy * (ay + t * aby)
-    flat = plane[seg_idx] * n_angles + np.mod(ray, n_angles)
-    best = np.full(k * n_angles, -np.inf)
-    np.maximum.at(best, flat, r)
-    best[~np.isfinite(best) | (best <= 0)] = np.nan
-    return best.reshape(k, n_angles)
+    return seg_idx, plane[seg_idx] * n_angles + np.mod(ray, n_angles), r
 
 
 def _segment_centroids(plane: np.ndarray, seg: np.ndarray, k: int) -> np.ndarray:
