@@ -5,6 +5,7 @@ import pytest
 import trimesh
 from scipy.spatial import ConvexHull
 
+from app.geometry.fit.calf import inner_wall_warning
 from app.geometry.sections import (
     edge_crossings,
     mesh_section_segments,
@@ -17,6 +18,7 @@ from app.geometry.sections import (
 )
 from app.geometry.sections.cloud import slice_points_polar
 from app.geometry.sections.cloud_edges import round_edge_crossings
+from app.geometry.sections.mesh import inner_contour_share
 from app.geometry.sections.polar import star_hull_perimeters
 from benchmarks.corpus.makehuman import ansur_subjects, leg_submesh, sized_legs
 from tests.phantoms import cylinder, tube_mesh
@@ -138,7 +140,8 @@ def test_a_wall_inside_the_skin_is_no_part_of_the_tape():
     """A mesh hollowed for 3D printing: the skin (a tube of radius 50 mm) and a wall 3 mm
     inside it, joined at both open ends by rims (one connected surface, as a solidify
     gives it).  The tape reads the skin's girth, not a mix of both walls (it read 2 pi x
-    1.5 mm short of it), and the skin alone reads the same."""
+    1.5 mm short of it), and the skin alone reads the same; the calf fit says the mesh
+    holds the wall."""
     heights = np.arange(0.0, 301.0, 2.0)
     skin, faces = _open_tube(50.0, heights)
     wall = skin * np.array([47.0 / 50.0, 47.0 / 50.0, 1.0])
@@ -152,6 +155,11 @@ def test_a_wall_inside_the_skin_is_no_part_of_the_tape():
     alone = tape_girths(skin, faces, at)
     assert np.allclose(alone, 2 * np.pi * 50.0, rtol=1e-3)
     assert np.allclose(tape_girths(shell, shell_faces, at), alone, atol=1e-6)
+    # the wall's length against the skin's, section by section: the calf fit's warning
+    assert np.allclose(inner_contour_share(shell, shell_faces, at), 47.0 / 50.0, atol=0.01)
+    assert np.allclose(inner_contour_share(skin, faces, at), 0.0)
+    assert inner_wall_warning(skin, faces, 20.0, 280.0) == []
+    assert "second surface inside the skin" in inner_wall_warning(shell, shell_faces, 20.0, 280.0)[0]
     # a hole in the skin leaves its arcs outermost where they face out: still the skin's girth
     centres = skin[faces].mean(axis=1)
     hole = (np.arctan2(centres[:, 1], centres[:, 0]) > 0.5) & (np.arctan2(centres[:, 1], centres[:, 0]) < 1.0)

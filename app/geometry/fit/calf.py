@@ -42,6 +42,7 @@ from app.geometry.placement.place import LegPlacement
 from app.geometry.scan.skin_layers import skin_layers
 from app.geometry.scan.skin_seam import skin_seam
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, LimbGraph, slice_polar, tape_band_girths, tape_girths
+from app.geometry.sections.mesh import inner_contour_share
 from app.geometry.sections.polar import bridge_sections
 from app.geometry.spline.distance import error_statistics
 from app.geometry.spline.lsq import LsqGrid, fit_lsq_surface
@@ -74,6 +75,26 @@ def _section_heights(b: float, d: float, options: FitOptions) -> np.ndarray:
     if options.section_spacing_mm:
         return np.arange(b, d + 1e-9, options.section_spacing_mm)
     return np.linspace(b, d, options.n_sections)
+
+#: a mesh whose calf sections hold, at their median, contours inside the skin this long
+#: against the skin's own is said to hold a wall: a hollowed mesh's wall runs the whole
+#: skin round (about 1); a skin's section holds none (0), an interior fragment a little
+INNER_WALL_SHARE = 0.5
+
+
+def inner_wall_warning(local: np.ndarray, faces: np.ndarray, b_mm: float, d_mm: float) -> list[str]:
+    """The warning (a list of none or one) for a mesh (calf-frame mm: local (n, 3), faces
+    (f, 3)) whose sections from B to D hold a second surface inside the skin, joined to
+    it (a wall given for 3D printing: a wall of its own is set aside at placement,
+    app.geometry.placement.leg_copies).  Its girths are read on the outer contours
+    (app.geometry.sections.mesh.outer_contours); the clinic is told what the file is."""
+    share = inner_contour_share(local, faces, np.linspace(b_mm, d_mm, 9))
+    if not np.isfinite(share).any() or np.nanmedian(share) < INNER_WALL_SHARE:
+        return []
+    return ["the mesh holds a second surface inside the skin round the calf (a mesh hollowed or given a wall, as for "
+            "3D printing): the girths are read on the outer surface, the skin a scanner sees; export the scan itself "
+            "if it is not"]
+
 
 def fit_calf(
     local: np.ndarray,
@@ -260,6 +281,8 @@ def fit_calf(
     seam = skin_seam(local[every_calf_point], b_mm, d_mm) if faces is None else None
     if layers is not None and layers.doubled:
         fit_warnings.append(layers.doubled_text)
+    if faces is not None:
+        fit_warnings.extend(inner_wall_warning(local, faces, b_mm, d_mm))
     if seam is not None and seam.moved:
         fit_warnings.append(seam.moved_text)
     for name in LANDMARK_NAMES:

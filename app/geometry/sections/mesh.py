@@ -113,6 +113,20 @@ def mesh_section_segments(
     return plane, segments
 
 
+def inner_contour_share(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray) -> np.ndarray:
+    """(k,) the length of each section's contours that lie inside its outer ones
+    (:func:`outer_contours`) over the outer ones' length: about 1 where a wall runs
+    inside the whole skin (a hollowed mesh), near 0 for a skin's section, NaN where the
+    plane cuts nothing.  vertices (n, 3) mm, faces (f, 3), heights (k,) ascending mm."""
+    every_plane, every_seg = mesh_section_segments(vertices, faces, heights)
+    outer_plane, outer_seg = mesh_section_segments(vertices, faces, heights, outer_only=True)
+    k = len(heights)
+    every = np.bincount(every_plane, weights=np.hypot(*(every_seg[:, 1] - every_seg[:, 0]).T), minlength=k)
+    outer = np.bincount(outer_plane, weights=np.hypot(*(outer_seg[:, 1] - outer_seg[:, 0]).T), minlength=k)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(outer > 0, (every - outer) / outer, np.nan)
+
+
 #: the rays from a section's centroid a contour must be outermost on to be skin
 #: (:func:`outer_contours`; the hole test's 5 degrees)
 OUTER_CONTOUR_RAYS = 72
