@@ -21,8 +21,8 @@ Each is checked and fitted as an upload is (benchmarks/corpus/evaluate.run_case)
 compared with the same case exported plain: the outcome, the girths of B, B1, C, D
 against the clean mesh's truth, how far the export moved them and their heights, and
 the warnings it added.  A scan read more than :data:`OFF_MM` off the plain export's
-girths (or whose landmark moved more than :data:`MOVED_MM`) without a new warning is
-counted as silent.
+girths, or whose landmark moved more than :data:`MOVED_MM` and past the height
+uncertainty either record states on it, without a new warning is counted as silent.
 """
 
 from __future__ import annotations
@@ -111,9 +111,16 @@ def _summary(got: dict, plain: dict) -> dict:
            "new_warnings": [w for w in got.get("warnings", []) if w not in plain.get("warnings", [])]}
     if got["outcome"] == "fit":
         row["girth_error_mm"] = got["girth_error_mm"]
+        row["height_error_mm"] = got["height_error_mm"]
         if plain["outcome"] == "fit":
             row["girth_moved_mm"] = max(abs(got["girth_error_mm"][n] - plain["girth_error_mm"][n]) for n in LANDMARKS)
-            row["height_moved_mm"] = max(abs(got["height_error_mm"][n] - plain["height_error_mm"][n]) for n in LANDMARKS)
+            moved = {n: abs(got["height_error_mm"][n] - plain["height_error_mm"][n]) for n in LANDMARKS}
+            row["height_moved_mm"] = max(moved.values())
+            row["height_moved_landmark"] = max(moved, key=moved.get)
+            # a landmark's move past the height uncertainty either record states on it
+            stated = {n: max(got["height_tolerance_mm"][n] or 0.0, plain["height_tolerance_mm"][n] or 0.0)
+                      for n in LANDMARKS}
+            row["height_moved_past_stated_mm"] = max(max(moved[n] - stated[n], 0.0) for n in LANDMARKS)
     return row
 
 
@@ -127,7 +134,8 @@ def markdown(summary: dict) -> str:
         "benchmarks/corpus/exports.py leave it. Outcome as the plain export's: the same outcome (a fit, or the same "
         "refusal). Girth error: |girth - the clean mesh's truth| over B, B1, C, D, mm; moved: the largest change of a "
         "girth (of a landmark's height) from the plain export's; silent: moved more than "
-        f"{OFF_MM:g} mm in girth or {MOVED_MM:g} mm in height with no warning the plain export did not have.", "",
+        f"{OFF_MM:g} mm in girth, or a landmark more than {MOVED_MM:g} mm in height and past the height uncertainty "
+        "either record states on it, with no warning the plain export did not have.", "",
         "| export | scans | outcome as plain | outcomes | girth error p50 / p95 / max | girth moved max | height moved max "
         "| with new warnings | silent |",
         "|---|---|---|---|---|---|---|---|---|",
@@ -141,7 +149,8 @@ def markdown(summary: dict) -> str:
         moved = [r["girth_moved_mm"] for r in group if "girth_moved_mm" in r]
         heights = [r["height_moved_mm"] for r in group if "height_moved_mm" in r]
         silent = [r for r in group if not r["new_warnings"] and (r.get("girth_moved_mm", 0.0) > OFF_MM
-                                                                 or r.get("height_moved_mm", 0.0) > MOVED_MM)]
+                                                                 or (r.get("height_moved_mm", 0.0) > MOVED_MM
+                                                                     and r.get("height_moved_past_stated_mm", 0.0) > 0))]
         lines.append(
             f"| {name} | {len(group)} | {sum(r['outcome'] == r['plain_outcome'] for r in group)} | "
             + ", ".join(f"{k} {v}" for k, v in outcomes.items()) + " | "
@@ -150,7 +159,8 @@ def markdown(summary: dict) -> str:
             + f" | {sum(bool(r['new_warnings']) for r in group)} | {len(silent)} |")
     lines += ["", "Exports whose outcome differs from the plain export's, or that moved a reading with or without a "
               "word (girth > 1 mm, height > 3 mm):", "",
-              "| leg | kind | export | outcome (plain) | girth moved | height moved | new warnings or refusal |",
+              "| leg | kind | export | outcome (plain) | girth moved | height moved (landmark; past its stated uncertainty) "
+              "| new warnings or refusal |",
               "|---|---|---|---|---|---|---|"]
     for r in rows:
         changed = (r["outcome"] != r["plain_outcome"] or r.get("girth_moved_mm", 0.0) > 1.0
@@ -160,7 +170,8 @@ def markdown(summary: dict) -> str:
         said = r["detail"] if r["outcome"] != "fit" else "; ".join(w[:90] for w in r["new_warnings"])
         lines.append(f"| {r['leg']} | {r['kind']} | {r['export']} | {r['outcome']} ({r['plain_outcome']}) | "
                      + (f"{r['girth_moved_mm']:.1f}" if "girth_moved_mm" in r else "-") + " | "
-                     + (f"{r['height_moved_mm']:.1f}" if "height_moved_mm" in r else "-") + f" | {said[:160] or '-'} |")
+                     + (f"{r['height_moved_mm']:.1f} ({r['height_moved_landmark']}; {r['height_moved_past_stated_mm']:.1f})"
+                        if "height_moved_mm" in r else "-") + f" | {said[:160] or '-'} |")
     return "\n".join(lines) + "\n"
 
 

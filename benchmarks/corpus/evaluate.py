@@ -51,6 +51,8 @@ def compare(case: Case, record: dict) -> dict:
         girth_error[name] = float(girth - case.truth.girths_mm[name])
         height_error[name] = float(b_shift + mark["height_mm"] - case.truth.heights_mm[name])
     out = {"girth_error_mm": girth_error, "height_error_mm": height_error,
+           # the uncertainty the record states on each landmark's height (mm, None where none)
+           "height_tolerance_mm": {n: record["landmarks"][n].get("height_tolerance_mm") for n in LANDMARKS},
            "side_found": record.get("side"), "warnings": record.get("warnings", [])}
     side_info = record.get("side_inference") or {}
     out["side_inferred"] = side_info.get("side")
