@@ -92,7 +92,9 @@ def nested_depth(inner: np.ndarray, outer: np.ndarray, outer_placement: CopyPlac
     outer_inside = float(np.mean(regions[0].find_simplex(slabs[1]) >= 0))
     if inner_inside < INSIDE_SHARE or outer_inside > CROSSING_SHARE:
         return None
-    return float(hulls[1].area - hulls[0].area) / (2.0 * np.pi)  # in 2-D, "area" is the perimeter
+    # in 2-D, "area" is the perimeter; a convex set inside another is no longer round (5%
+    # of the points may stray past the outer hull: not below 0)
+    return max(float(hulls[1].area - hulls[0].area) / (2.0 * np.pi), 0.0)
 
 
 def one_copy_per_leg(legs: list[Placed]) -> tuple[list[Placed], list[str]]:
