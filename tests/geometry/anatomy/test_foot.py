@@ -287,3 +287,18 @@ def test_a_cloud_sparser_on_one_side_of_the_heel_reads_the_whole_clouds_foot():
         assert uneven.heel_instep_girth.value_mm == pytest.approx(whole.heel_instep_girth.value_mm, abs=1.5), np.degrees(angle)
         assert uneven.ball_girth.value_mm == pytest.approx(whole.ball_girth.value_mm, abs=1.5), np.degrees(angle)
 
+
+
+def test_a_loop_whose_gap_has_no_bound_says_so_not_a_shortfall_as_long_as_the_girth():
+    """stated_shortfall caps an unbounded gap's miss at the girth itself: a dome closing a
+    foot cut at the midfoot read "cY may read up to 419 mm short" of a 300 mm-class girth.
+    Such a reading says it has no bound; a bounded one still gives its shortfall."""
+    from app.geometry.anatomy.foot import FootMeasures, FootPoint
+    from app.geometry.anatomy.foot_loops import stated_shortfall
+
+    unbounded = FootPoint("cY", 419.0, None, uncertainty_mm=stated_shortfall(float("inf"), 419.0))
+    bounded = FootPoint("cA", 240.0, None, uncertainty_mm=stated_shortfall(12.0, 240.0))
+    length = FootPoint("foot_length", 250.0, None)
+    said = FootMeasures(length, bounded, unbounded).warnings
+    assert said[0].startswith("cA may read up to 12 mm short") and said[1].startswith("cY has no bound")
+    assert "take cY by tape" in said[1] and len(said) == 2
