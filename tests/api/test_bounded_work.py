@@ -152,6 +152,7 @@ def _raw(port: int, request: bytes, wait_s: float = 10.0) -> tuple[bytes, float]
     return answer, time.monotonic() - started
 
 
+@pytest.mark.slow  # a served process or the CLI run end to end: 8-13 s (`make test-slow`)
 def test_a_served_instance_answers_from_the_headers_without_waiting_for_the_body(tmp_path):
     """Over a real socket: a POST that promises a body and never sends it gets its 401
     (no key) or 413 (too large) at once - the server does not wait to read it."""

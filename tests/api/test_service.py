@@ -171,6 +171,7 @@ def test_every_route_lists_its_problems():
             assert problem_statuses, f"{method.upper()} {path} lists no problem responses"
 
 
+@pytest.mark.slow  # a served process or the CLI run end to end: 8-13 s (`make test-slow`)
 def test_restart_keeps_every_record(tmp_path):
     with serve(tmp_path) as first:
         response = upload(first, "bodyparts3d_right_leg.stl", None)
@@ -182,6 +183,7 @@ def test_restart_keeps_every_record(tmp_path):
         assert second.get(response.headers["location"]).json()["status"] == "succeeded"
 
 
+@pytest.mark.slow  # a served process or the CLI run end to end: 8-13 s (`make test-slow`)
 def test_jobs_left_running_by_a_crash_are_picked_up_at_start(tmp_path):
     from sqlalchemy import update
 

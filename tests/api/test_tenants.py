@@ -203,6 +203,7 @@ def _cli(data_dir: Path, *args: str) -> subprocess.CompletedProcess:
                           env=env, cwd=ROOT, timeout=120)
 
 
+@pytest.mark.slow  # a served process or the CLI run end to end: 8-13 s (`make test-slow`)
 def test_keys_cli_creates_lists_and_revokes(tmp_path):
     created = _cli(tmp_path, "create", "--tenant", "Klinik Süd", "--scopes", "upload,read", "--label", "portal")
     assert created.returncode == 0, created.stderr
