@@ -159,10 +159,13 @@ class FootMeasures:
     def warnings(self) -> tuple[str, ...]:
         """A sentence for each girth a sparse loop leaves uncertain and for a foot length
         whose sparse ends do (module docstring)."""
-        said = tuple((f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short" if point.value_mm is None
-                      or point.uncertainty_mm < point.value_mm else f"{point.name} has no bound on how short it reads")
-                     + f": the scan's points are too sparse round the {where} for its tape loop to follow the skin (the "
-                     f"loop's chords bridge its gaps); take {point.name} by tape (RAL-GZ 387)"
+        def short_by(point: FootPoint) -> str:  # a gap without a bound is stated as the girth itself
+            if point.value_mm is not None and point.uncertainty_mm is not None and point.uncertainty_mm >= point.value_mm:
+                return f"{point.name} has no bound on how short it reads"
+            return f"{point.name} may read up to {point.uncertainty_mm:.0f} mm short"
+
+        said = tuple(f"{short_by(point)}: the scan's points are too sparse round the {where} for its tape loop to "
+                     f"follow the skin (the loop's chords bridge its gaps); take {point.name} by tape (RAL-GZ 387)"
                      for point, where in ((self.ball_girth, "forefoot"), (self.heel_instep_girth, "heel and instep"))
                      if point.uncertainty_mm is not None)
         if self.foot_length.uncertainty_mm is not None:

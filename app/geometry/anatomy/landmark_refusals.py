@@ -37,9 +37,14 @@ def failure_stage(failure: FitFailure) -> float:
     sections whose arcs read like a strip's); a join above a narrowing calf
     (:class:`JoinedAboveCalf`) between that partial view and a knee found bent (robustness
     220 23, seated-04: the thigh joins the shank's sections under its knee waist, and
-    the diagonal reading's arcs were all that was left to say)."""
+    the diagonal reading's arcs were all that was left to say); of two joins, the one
+    under the leg's own calf above one read from a bulge over its join
+    (:attr:`JoinedAboveCalf.over_join`: the other body part's bulge, its "ankle" the leg
+    narrowing into the join - a join at 350 mm over an ankle at 38 was named "12 mm above
+    the ankle" from the thigh's larger bulge, "64 mm above the calf maximum" from the
+    leg's own, which came first hanging on a rounding)."""
     if isinstance(failure, JoinedAboveCalf):
-        return 2.4
+        return 2.35 if failure.over_join else 2.4
     if isinstance(failure, BridgedStrip):
         return 2.25
     if isinstance(failure, CalfWithoutBulge):

@@ -46,7 +46,7 @@ from app.geometry.anatomy.calf_candidates import (
 )
 from app.geometry.anatomy.landmark_refusals import ends_inside_calf, failure_stage, no_calf
 from app.geometry.anatomy.waists import crown_centre
-from app.geometry.errors import BulgeOnFlank, CalfWithoutBulge, FailureReason, FitFailure, FootFound, JoinedAboveCalf
+from app.geometry.errors import BulgeOnFlank, CalfWithoutBulge, FailureReason, FitFailure, FootFound
 
 #: Gaussian smoothing of the circumference profile, mm; and the profile noise beyond
 #: which it grows, up to the slab thickness of the sparsest clouds (smooth_profile)
@@ -160,13 +160,6 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
                 # read from the ankle, not a thigh's over a knee waist)
                 lowest = outcome.reason is FailureReason.NO_ANKLE or isinstance(outcome, CalfWithoutBulge)
                 rank = -float(heights[ic]) if lowest else float(g[ic])
-                if isinstance(outcome, JoinedAboveCalf) and outcome.over_join:
-                    # a bulge above a join is the other body part's, and the "ankle" under it
-                    # the leg narrowing into the join: the leg's own calf below the join says
-                    # where it is (a join at 350 mm over an ankle at 38 was named "12 mm above
-                    # the ankle" from the thigh's larger bulge, "64 mm above the calf
-                    # maximum" from the leg's own: which came first hung on a rounding)
-                    rank -= 1e6
                 failures.append((failure_stage(outcome), rank, outcome, float(heights[ic])))
             else:
                 valid.append((int(ic), outcome))

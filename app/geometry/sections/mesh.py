@@ -50,6 +50,21 @@ AXIAL_FILL_SPAN_MM = 60.0
 def mesh_section_segments(
     vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray, outer_only: bool = False
 ) -> tuple[np.ndarray, np.ndarray]:
+    """Intersect a triangle mesh with the planes ``z = heights`` all at once: the plane
+    index (s,) and end points (s, 2, 2) mm of every segment (:func:`_crossings`), with
+    ``outer_only`` only those of each section's outer contours (:func:`outer_contours`:
+    a wall inside the skin left out).  vertices (n, 3) mm, faces (f, 3), heights (k,)
+    ascending."""
+    plane, segments, ends = _crossings(vertices, faces, heights)
+    if outer_only:
+        keep = outer_contours(plane, segments, ends, len(heights))
+        plane, segments = plane[keep], segments[keep]
+    return plane, segments
+
+
+def _crossings(
+    vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Intersect a triangle mesh with the planes ``z = heights`` all at once.
 
     A plane crosses a triangle when ``z_min < h <= z_max``; the one corner on its own
@@ -58,8 +73,6 @@ def mesh_section_segments(
     Parameters
     ----------
     vertices : (n, 3) float, mm.  faces : (f, 3) int.  heights : (k,) ascending.
-    outer_only : keep only the segments of each section's outer contours
-        (:func:`outer_contours`: a wall inside the skin left out).
 
     Returns
     -------
@@ -67,6 +80,9 @@ def mesh_section_segments(
         Plane index of each segment.
     segments : (s, 2, 2) float
         Segment end points (x, y), mm.
+    ends : (s, 2) int64
+        The mesh edge each end lies on, as min * n + max of its vertex indices (two
+        segments of one plane sharing a key meet there).
     """
     x = np.ascontiguousarray(vertices[:, 0])
     y = np.ascontiguousarray(vertices[:, 1])
@@ -81,7 +97,7 @@ def mesh_section_segments(
     crossing = np.flatnonzero(hi > lo)
     pair_face, plane = plane_pairs(lo[crossing].astype(np.int64), hi[crossing].astype(np.int64))
     if plane.size == 0:
-        return plane, np.empty((0, 2, 2))
+        return plane, np.empty((0, 2, 2)), np.empty((0, 2), dtype=np.int64)
     corners = faces[crossing[pair_face]]  # (s, 3)
     h = heights[plane]
     tz = z[corners]
@@ -103,14 +119,11 @@ def mesh_section_segments(
     segments[:, 0, 1] = ya + tb * (y[ib] - ya)
     segments[:, 1, 0] = xa + tc * (x[ic] - xa)
     segments[:, 1, 1] = ya + tc * (y[ic] - ya)
-    if outer_only:
-        # each end is where the plane crosses a mesh edge: (plane, edge) names it, and the
-        # segments sharing ends chain into the section's contours
-        n = np.int64(len(vertices))
-        ends = np.column_stack([np.minimum(ia, ib) * n + np.maximum(ia, ib), np.minimum(ia, ic) * n + np.maximum(ia, ic)])
-        keep = outer_contours(plane, segments, ends, len(heights))
-        plane, segments = plane[keep], segments[keep]
-    return plane, segments
+    # each end is where the plane crosses a mesh edge: (plane, edge) names it, and the
+    # segments sharing ends chain into the section's contours
+    n = np.int64(len(vertices))
+    ends = np.column_stack([np.minimum(ia, ib) * n + np.maximum(ia, ib), np.minimum(ia, ic) * n + np.maximum(ia, ic)])
+    return plane, segments, ends
 
 
 def inner_contour_share(vertices: np.ndarray, faces: np.ndarray, heights: np.ndarray) -> np.ndarray:
@@ -118,11 +131,12 @@ def inner_contour_share(vertices: np.ndarray, faces: np.ndarray, heights: np.nda
     (:func:`outer_contours`) over the outer ones' length: about 1 where a wall runs
     inside the whole skin (a hollowed mesh), near 0 for a skin's section, NaN where the
     plane cuts nothing.  vertices (n, 3) mm, faces (f, 3), heights (k,) ascending mm."""
-    every_plane, every_seg = mesh_section_segments(vertices, faces, heights)
-    outer_plane, outer_seg = mesh_section_segments(vertices, faces, heights, outer_only=True)
+    plane, seg, ends = _crossings(vertices, faces, heights)
     k = len(heights)
-    every = np.bincount(every_plane, weights=np.hypot(*(every_seg[:, 1] - every_seg[:, 0]).T), minlength=k)
-    outer = np.bincount(outer_plane, weights=np.hypot(*(outer_seg[:, 1] - outer_seg[:, 0]).T), minlength=k)
+    length = np.hypot(*(seg[:, 1] - seg[:, 0]).T)
+    every = np.bincount(plane, weights=length, minlength=k)
+    keep = outer_contours(plane, seg, ends, k)
+    outer = np.bincount(plane[keep], weights=length[keep], minlength=k)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(outer > 0, (every - outer) / outer, np.nan)
 
