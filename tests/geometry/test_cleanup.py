@@ -67,7 +67,8 @@ def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
     search: the same points, in the same pieces."""
     import json
 
-    from app.geometry.placement.place import LegPlacement, place_leg
+    from app.geometry.placement.leg_placement import LegPlacement
+    from app.geometry.placement.place import place_leg
 
     points, _ = _leg_on_platform(0.3)
     scan = Scan(points, None, "mm", False, "xyz")
@@ -85,7 +86,8 @@ def test_a_replayed_clean_up_keeps_the_same_points_and_pieces():
 def test_a_placement_stored_without_the_clean_up_still_replays():
     """Placements stored before the clean-up was kept in them (queued jobs across an
     upgrade) have no floors: the clean-up is searched for again, with the same leg."""
-    from app.geometry.placement.place import LegPlacement, place_leg, replace_leg
+    from app.geometry.placement.leg_placement import LegPlacement
+    from app.geometry.placement.place import place_leg, replace_leg
 
     points, _ = _leg_on_platform(0.3)
     scan = Scan(points, None, "mm", False, "xyz")

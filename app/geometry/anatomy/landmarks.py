@@ -216,6 +216,12 @@ def find_feature_heights(heights: np.ndarray, girth: np.ndarray, near_c_mm: floa
     if (near_c_mm is None and not got_ankle and rising and long_rise
             and top - heights[up[np.argmax(g[up])]] <= 5 * INTERIOR_MARGIN_MM):
         raise ends_inside_calf(top - heights[narrowest], float(g[narrowest]), float(g[up].max()), at_top=True)
+    if not failures:
+        # every candidate was a bulge on the flank of a larger one (on_a_larger_calfs_flank),
+        # and that one was no candidate: no ankle or knee waist of its own in the scan
+        raise no_calf("the profile's bulges lie on the rising flank of a larger bulge above them, which has no "
+                      "ankle and knee waist of its own in the scan: the scan must hold the whole lower leg, from "
+                      "below the ankle bones to above the knee joint")
     # report how far the most complete candidate got: an ankle without a knee says more
     # than no ankle; a bump too weak to be a calf is reported only if nothing else is
     reported = max(failures, key=lambda item: (item[0], item[1]))[2]

@@ -38,7 +38,7 @@ from app.geometry.fit.sparse_clouds import (
 )
 from app.geometry.placement import calf_frame as cf
 from app.geometry.placement.coverage import bridged_arc_warning, bridged_arcs, open_arcs_failure, without_open_arcs
-from app.geometry.placement.place import LegPlacement
+from app.geometry.placement.leg_placement import LegPlacement
 from app.geometry.scan.skin_layers import skin_layers
 from app.geometry.scan.skin_seam import skin_seam
 from app.geometry.sections import TAPE_BAND_OFFSETS_MM, LimbGraph, slice_polar, tape_band_girths, tape_girths

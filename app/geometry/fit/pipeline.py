@@ -26,7 +26,8 @@ from app.geometry.fit.leg_model import leg_model_of
 from app.geometry.fit.options import FitOptions
 from app.geometry.fit.result import FitResult
 from app.geometry.fit.sparse_clouds import knee_waist_on_graph, sparse_cloud_graph
-from app.geometry.placement.place import LegPlacement, PlacedLeg, place_leg, replace_leg
+from app.geometry.placement.leg_placement import LegPlacement, PlacedLeg
+from app.geometry.placement.place import place_leg, replace_leg
 from app.geometry.scan.reader import Scan
 
 __all__ = ["MAX_ERROR_POINTS", "FitOptions", "FitResult", "check_scan", "fit_calf", "fit_placed_leg", "fit_scan", "place_scan"]

@@ -16,7 +16,7 @@ from app.geometry.anatomy.thigh import ThighMeasures
 from app.geometry.fit.leg_model import LegModelOutcome
 from app.geometry.fit.options import FitOptions
 from app.geometry.placement import calf_frame as cf
-from app.geometry.placement.place import LegPlacement
+from app.geometry.placement.leg_placement import LegPlacement
 from app.geometry.scan.skin_layers import SkinLayers
 from app.geometry.scan.skin_seam import SkinSeam
 from app.geometry.sections import PolarSections

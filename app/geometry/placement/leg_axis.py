@@ -27,6 +27,7 @@ import numpy as np
 from app.geometry.anatomy.landmark_refusals import failure_stage
 from app.geometry.errors import CalfWithoutBulge, FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
+from app.geometry.placement.caps import Cap, closing_caps, leave_out_caps
 from app.geometry.placement.first_axis import first_axis, pca_samples
 from app.geometry.placement.knee_bend import hidden_knee_refusal, keep_index, seated_knee_refusals, shank_runs
 from app.geometry.placement.straight_reading import REDETECT_DEG, AxisProfile, orient, refine
@@ -41,7 +42,8 @@ class CalfAxis:
     """A candidate leg placed: ``rotation`` (3, 3) rows x, y (anterior), z (up) and
     ``origin_mm`` (3,) at B's centroid, in scan mm; ``anterior_cue`` (foot, calf_bulge,
     undetermined); ``c_mm``, ``d_mm`` heights of C and D above B; the edge flags; a bent
-    knee's cut ``half_spaces`` ((point (3,), normal (3,)), ...)."""
+    knee's cut ``half_spaces`` ((point (3,), normal (3,)), ...); the ``caps`` a mesh tool
+    closed the scan's cut ends with, left out (:mod:`app.geometry.placement.caps`)."""
 
     rotation: np.ndarray
     origin_mm: np.ndarray
@@ -52,6 +54,7 @@ class CalfAxis:
     b_at_scan_edge: bool
     d_at_scan_edge: bool
     half_spaces: tuple
+    caps: tuple[Cap, ...] = ()
 
 
 def _place_run(run, points, faces, samples, weights, basis) -> tuple[AxisProfile, np.ndarray, np.ndarray | None]:
@@ -118,6 +121,12 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
             f"a leg is at least {MIN_ASPECT:g} times longer than it is wide",
         )
     axis, basis = first_axis(samples, weights, shape_axes, up)
+    caps = closing_caps(points, faces, basis)
+    if caps:  # the leg as the scanner cut it, its axis read again without the caps' surface
+        points, faces = leave_out_caps(points, faces, caps)
+        samples, weights = pca_samples(points, faces)
+        shape_axes = cf.principal_frame(samples, weights)
+        axis, basis = first_axis(samples, weights, shape_axes, up)
     if faces is None:
         # a cloud is sliced along this axis and then along axes a few degrees from it:
         # sorted along it once, each slicing's sort is a pass over nearly sorted data
@@ -176,7 +185,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
     rotation = cf.perpendicular_basis(axis, hint)
     origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
     return CalfAxis(rotation, origin, cue, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm,
-                    feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces)
+                    feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces, caps)
 
 
 def clip_to_half_spaces(points: np.ndarray, faces: np.ndarray | None, half_spaces) -> tuple[np.ndarray, np.ndarray | None]:

@@ -31,11 +31,12 @@ from app.geometry.anatomy.other_leg import other_leg_beside, other_leg_confirmed
 from app.geometry.anatomy.side import infer_side
 from app.geometry.errors import FailureReason, FitFailure
 from app.geometry.placement import calf_frame as cf
-from app.geometry.placement.leg_axis import CalfAxis, clip_to_half_spaces, place_candidate
+from app.geometry.placement.leg_axis import CalfAxis, place_candidate
 from app.geometry.placement.leg_copies import one_copy_per_leg
 from app.geometry.placement.leg_pairs import split_legs
+from app.geometry.placement.leg_placement import LegPlacement, PlacedLeg
 from app.geometry.placement.leg_size import SHAPE_REASONS, check_leg_size, with_unit_hint
-from app.geometry.scan.cleanup import CleanScan, CleanupReplay, clean_scan
+from app.geometry.scan.cleanup import CleanScan, clean_scan
 from app.geometry.scan.reader import MIN_POINTS, Scan
 from app.geometry.sections.cloud import MIN_CLOUD_POINTS_PER_MM
 
@@ -47,81 +48,6 @@ CONTRADICTED_SIDE_CONFIDENCE = 0.9
 #: (ANSUR II: lateral malleolus to tibiale is at least ~300 mm)
 MIN_LEG_LENGTH_MM = 200.0
 
-
-
-@dataclass(frozen=True)
-class LegPlacement:
-    """Where the calf is in a scan: JSON-ready, to hand from the upload check to the fit.
-
-    rotation (3, 3) rows x, y (anterior), z (up) in scan mm; origin_mm (3,) at B;
-    c_mm, d_mm heights of C and D above B; the edge flags; the side and where it came
-    from (``given``, ``body`` - from the other leg -, ``foot``, or None) with a
-    confidence in [0.5, 1]; ``piece`` and ``half`` say which cleaned piece and which
-    leg of it; ``warnings`` in words.
-    """
-
-    rotation: np.ndarray
-    origin_mm: np.ndarray
-    mm_per_unit: float
-    anterior_cue: str
-    c_mm: float
-    d_mm: float
-    d_at_window_edge: bool = False
-    b_at_scan_edge: bool = False
-    d_at_scan_edge: bool = False
-    side: str | None = None
-    side_source: str | None = None
-    side_confidence: float | None = None
-    piece: int = 0
-    half: int = -1
-    warnings: tuple = ()
-    #: a bent knee's cut: ((point (3,), normal (3,)), ...) in scan mm, keep (p - point) . normal <= 0
-    half_spaces: tuple = ()
-    #: what the clean-up found (floor planes, a cloud's voxel size and point spacing): the
-    #: fit repeats the clean-up from it; None in a placement stored before it was kept
-    #: (the clean-up is then searched for again, with the same result)
-    cleanup: CleanupReplay | None = None
-
-    @property
-    def frame(self) -> cf.CalfFrame:
-        return cf.CalfFrame(self.rotation, self.origin_mm, self.mm_per_unit, self.anterior_cue)
-
-    def to_dict(self) -> dict:
-        return {
-            "rotation": np.asarray(self.rotation).tolist(), "origin_mm": np.asarray(self.origin_mm).tolist(),
-            "mm_per_unit": self.mm_per_unit, "anterior_cue": self.anterior_cue,
-            "c_mm": self.c_mm, "d_mm": self.d_mm, "d_at_window_edge": self.d_at_window_edge,
-            "b_at_scan_edge": self.b_at_scan_edge, "d_at_scan_edge": self.d_at_scan_edge,
-            "side": self.side, "side_source": self.side_source, "side_confidence": self.side_confidence,
-            "piece": self.piece, "half": self.half, "warnings": list(self.warnings),
-            "half_spaces": [[np.asarray(p).tolist(), np.asarray(n).tolist()] for p, n in self.half_spaces],
-            **(self.cleanup.to_dict() if self.cleanup is not None else {}),
-        }
-
-    @classmethod
-    def from_dict(cls, data: dict) -> LegPlacement:
-        return cls(
-            rotation=np.asarray(data["rotation"], dtype=float), origin_mm=np.asarray(data["origin_mm"], dtype=float),
-            mm_per_unit=float(data["mm_per_unit"]), anterior_cue=str(data["anterior_cue"]),
-            c_mm=float(data["c_mm"]), d_mm=float(data["d_mm"]),
-            d_at_window_edge=bool(data.get("d_at_window_edge", False)),
-            b_at_scan_edge=bool(data.get("b_at_scan_edge", False)), d_at_scan_edge=bool(data.get("d_at_scan_edge", False)),
-            side=data.get("side"), side_source=data.get("side_source"), side_confidence=data.get("side_confidence"),
-            piece=int(data.get("piece", 0)), half=int(data.get("half", -1)), warnings=tuple(data.get("warnings", ())),
-            half_spaces=tuple((np.asarray(p, dtype=float), np.asarray(n, dtype=float))
-                              for p, n in data.get("half_spaces", ())),
-            cleanup=CleanupReplay.from_dict(data),
-        )
-
-
-@dataclass(frozen=True)
-class PlacedLeg:
-    """A leg cut out of its scan (scan mm: points (n, 3), faces (f, 3) or None) and its
-    placement."""
-
-    points: np.ndarray
-    faces: np.ndarray | None
-    placement: LegPlacement
 
 
 #: the record's warning for a leg cut from the other leg it touched in the scan
@@ -147,7 +73,8 @@ def _placement_of(axis: CalfAxis, mm_per_unit: float) -> LegPlacement:
     """The serialisable placement of a placed candidate (its side and piece filled in
     later by :func:`place_leg`)."""
     return LegPlacement(axis.rotation, axis.origin_mm, mm_per_unit, axis.anterior_cue, axis.c_mm, axis.d_mm,
-                        axis.d_at_window_edge, axis.b_at_scan_edge, axis.d_at_scan_edge, half_spaces=axis.half_spaces)
+                        axis.d_at_window_edge, axis.b_at_scan_edge, axis.d_at_scan_edge, half_spaces=axis.half_spaces,
+                        caps=axis.caps)
 
 
 def _candidates(clean: CleanScan) -> list[_Candidate]:
@@ -332,6 +259,11 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
     if placement.half_spaces:
         warnings.append("the knee is bent: the shank was cut free of the thigh at the plane bisecting "
                         "the knee angle, and measured only where that cut leaves its sections whole")
+    for cap in placement.caps:
+        end = "top" if float(np.asarray(cap.normal) @ placement.rotation[2]) > 0 else "bottom"
+        warnings.append(f"the scan is closed at its {end} end by a surface that is not skin (a cap a mesh tool "
+                        f"adds to make a scan watertight, reaching {cap.depth_mm:.0f} mm past the cut): it was left "
+                        "out and the leg measured as cut there; export the scan without closing its holes")
     if placement.b_at_scan_edge:
         # the edge passes as B when the girth levels off into it; a leg cut 27 mm above its
         # ankle waist, whose cut's partial sections level off, read cB 8.2 mm high and cB1
@@ -360,7 +292,7 @@ def _place_leg(scan: Scan, side: str | None) -> PlacedLeg:
                                 "side_confidence": confidence, "piece": candidate.piece,
                                 "half": candidate.half, "warnings": tuple(warnings),
                                 "cleanup": clean.replay})
-    leg = PlacedLeg(*clip_to_half_spaces(candidate.points, candidate.faces, placement.half_spaces), placement)
+    leg = PlacedLeg(*placement.cut_out(candidate.points, candidate.faces), placement)
     # a leg in inches reads as one in cm: the girth at C tells (app.geometry.placement.leg_size)
     check_leg_size(placement.frame.to_calf(leg.points), placement.c_mm, scan.units, scan.units_detected)
     return leg
@@ -385,4 +317,4 @@ def replace_leg(scan: Scan, placement: LegPlacement) -> PlacedLeg:
         origin = np.asarray(placement.origin_mm, dtype=np.float64)
         cut = min(cuts, key=lambda c: float(np.linalg.norm(points[c.point_index] - origin, axis=1).min(initial=np.inf)))
         points, faces = points[cut.point_index], cf.submesh(cut.point_index, faces, len(points))
-    return PlacedLeg(*clip_to_half_spaces(points, faces, placement.half_spaces), placement)
+    return PlacedLeg(*placement.cut_out(points, faces), placement)
