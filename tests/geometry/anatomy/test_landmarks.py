@@ -260,3 +260,20 @@ def test_a_join_is_a_jump_no_leg_makes_and_a_sparse_profiles_noise_is_none():
     across_gap[step - 3 : step] = np.nan
     assert merged_above(z, across_gap, 0, 150.0) is None
     assert merged_above(z, doubled, 0, 60.0) is None  # beyond the reach asked
+
+
+def test_a_shoulder_whose_knee_waist_is_a_larger_bulges_flank_is_refused_not_a_crash():
+    """Found again near the C of a first reading (``near_c_mm``), a profile whose only
+    candidate near it is a shoulder, whose knee waist lies on the rising flank of a larger
+    bulge above - which the hint keeps out of the candidates: that shoulder is no calf,
+    and nothing else was tried.  The search raised ValueError (max of no refusals: an
+    internal error in the service; 13 of 4,000 random piecewise-linear slopes, read after
+    a watertight export's cap was cut away); it is refused as no calf, saying why."""
+    z = np.arange(0.0, 600.0, 2.0)
+    slope = np.interp(z, [0.0, 53.0, 135.0, 204.0, 356.0, 419.0, 480.0, 490.0, 599.0, 600.0],
+                      [0.4, -1.1, 0.7, 0.2, 0.8, -0.4, -0.4, -0.9, -0.8, -0.5])  # mm of girth per mm
+    girth = 250.0 + np.concatenate([[0.0], np.cumsum((slope[1:] + slope[:-1]) / 2 * np.diff(z))])
+    with pytest.raises(FitFailure) as caught:
+        find_feature_heights(z, girth, near_c_mm=231.0)
+    assert caught.value.reason is FailureReason.NO_CALF
+    assert "rising flank of a larger bulge" in caught.value.detail
