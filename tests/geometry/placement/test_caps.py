@@ -136,3 +136,38 @@ def test_the_sole_closing_a_real_leg_is_no_cap():
     scan, fit = fitted("bodyparts3d_right_leg.stl", None)
     assert fit.placement.caps == ()
     assert not any("closed at its" in w for w in fit.warnings)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("style", ["flat", "dome"])
+def test_a_generated_leg_cut_from_the_ankle_to_the_thigh_and_exported_watertight_fits_as_its_scan(style):
+    """A generated leg scanned from the ankle to the thigh (benchmarks/corpus, ANSUR II
+    subject 3105), closed at both cuts as a watertight export closes them: refused before
+    caps were left out (the thigh's cap read as a bulge, "a foot, not a calf"; the
+    ankle's as the leg still narrowing), it fits as its open scan - girths at B, B1, C, D
+    within 0.5 mm - with a cap left out at each end: the flat fill over the planar ankle
+    cut as a fill in its plane, the fan over the thigh's cut round the crotch (no plane)
+    and the domes beyond their rims."""
+    import dataclasses
+    import io
+
+    from benchmarks.corpus.cases import CaseSpec, build_case
+    from benchmarks.corpus.evaluate import run_case
+    from benchmarks.exported_meshes import as_file
+
+    case = build_case(CaseSpec("caps-ankle-to-thigh", "ankle_to_thigh", 1016164991, 3105))
+    plain = run_case(case)
+    assert plain["outcome"] == "fit"
+    mesh = trimesh.load(io.BytesIO(case.data), file_type=case.file_type, process=True)
+    mesh.apply_transform(np.linalg.inv(case.to_scan))
+    capped_case = dataclasses.replace(case, data=as_file(exports.capped(mesh, style), case.to_scan, case.file_type))
+    capped = run_case(capped_case)
+    assert capped["outcome"] == "fit", capped.get("detail")
+    for name, error in capped["girth_error_mm"].items():
+        assert abs(error - plain["girth_error_mm"][name]) < 0.5, name
+    placement = check_scan(load_scan(capped_case.data, file_type=capped_case.file_type, units=capped_case.units))
+    assert len(placement.caps) == 2
+    ankle = max(placement.caps, key=lambda cap: -float(cap.normal @ placement.rotation[2]))
+    assert float(ankle.normal @ placement.rotation[2]) < -0.9 and ankle.flat == (style == "flat")
+    assert not any(cap.flat for cap in placement.caps if cap is not ankle)
+    assert sum("closed at its" in w for w in placement.warnings) == 2
