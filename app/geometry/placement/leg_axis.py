@@ -19,7 +19,7 @@ scan by :mod:`app.geometry.placement.place` - and returns a :class:`CalfAxis`, i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -122,11 +122,29 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
         )
     axis, basis = first_axis(samples, weights, shape_axes, up)
     caps = closing_caps(points, faces, basis)
-    if caps:  # the leg as the scanner cut it, its axis read again without the caps' surface
-        points, faces = leave_out_caps(points, faces, caps)
-        samples, weights = pca_samples(points, faces)
-        shape_axes = cf.principal_frame(samples, weights)
-        axis, basis = first_axis(samples, weights, shape_axes, up)
+    if not caps:
+        return _place_straight_or_bent(points, faces, up, samples, weights, shape_axes, axis, basis)
+    # the leg as the scanner cut it, its axis read again without the caps' surface
+    points, faces = leave_out_caps(points, faces, caps)
+    samples, weights = pca_samples(points, faces)
+    shape_axes = cf.principal_frame(samples, weights)
+    axis, basis = first_axis(samples, weights, shape_axes, up)
+    try:
+        placed = _place_straight_or_bent(points, faces, up, samples, weights, shape_axes, axis, basis)
+    except FitFailure as failure:  # said of the leg as cut: say what was cut away
+        failure.detail = (f"{failure.detail.rstrip('.')}. (The scan was closed at {len(caps)} of its ends by a "
+                          "surface that is not skin - a cap a mesh tool adds to make a scan watertight -, left out "
+                          "and the leg read as cut there: export the scan without closing its holes.)")
+        failure.args = (failure.detail,)
+        raise
+    return replace(placed, caps=caps)
+
+
+def _place_straight_or_bent(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray | None,
+                            samples: np.ndarray, weights: np.ndarray | None, shape_axes: np.ndarray,
+                            axis: np.ndarray, basis: np.ndarray) -> CalfAxis:
+    """:func:`place_candidate` after the first axis: the leg read straight along it, else as
+    a bent knee's runs, else along the consensus line (raises FitFailure)."""
     if faces is None:
         # a cloud is sliced along this axis and then along axes a few degrees from it:
         # sorted along it once, each slicing's sort is a pass over nearly sorted data
@@ -185,7 +203,7 @@ def place_candidate(points: np.ndarray, faces: np.ndarray | None, up: np.ndarray
     rotation = cf.perpendicular_basis(axis, hint)
     origin = centre + basis.T @ np.array([b_centre[0], b_centre[1], feats.b_mm])
     return CalfAxis(rotation, origin, cue, feats.c_mm - feats.b_mm, feats.d_mm - feats.b_mm,
-                    feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces, caps)
+                    feats.d_at_window_edge, feats.b_at_scan_edge, feats.d_at_scan_edge, half_spaces)
 
 
 def clip_to_half_spaces(points: np.ndarray, faces: np.ndarray | None, half_spaces) -> tuple[np.ndarray, np.ndarray | None]:

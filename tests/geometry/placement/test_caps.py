@@ -171,3 +171,17 @@ def test_a_generated_leg_cut_from_the_ankle_to_the_thigh_and_exported_watertight
     assert float(ankle.normal @ placement.rotation[2]) < -0.9 and ankle.flat == (style == "flat")
     assert not any(cap.flat for cap in placement.caps if cap is not ankle)
     assert sum("closed at its" in w for w in placement.warnings) == 2
+
+
+def test_a_refusal_of_a_leg_read_without_its_caps_says_they_were_left_out(oblique_tube):
+    """A scan refused after its caps were left out is refused for the leg as cut, and
+    the refusal says what was cut away (the refusal alone - no calf in a tube - would
+    send the clinic looking for a fault the scan does not have); an open tube's refusal
+    says nothing of caps."""
+    from app.geometry.errors import FitFailure
+
+    for mesh, said in ((_merged(exports.capped(oblique_tube, "dome")), True), (oblique_tube, False)):
+        with pytest.raises(FitFailure) as caught:
+            check_scan(load_scan(mesh.export(file_type="stl"), file_type="stl"))
+        assert ("a cap a mesh tool adds to make a scan watertight" in caught.value.detail) is said
+        assert str(caught.value) == caught.value.detail
