@@ -13,9 +13,11 @@ cut narrows the leg into an ankle that is not there (benchmarks/exported_meshes.
 The rule (:func:`closing_caps`), on a mesh, along the leg's first axis
 (:mod:`app.geometry.placement.first_axis`), at each end of the leg:
 
-1. The end is closed only when a surface crosses the leg's axis there
-   (:func:`closed_across`): a cut end is open across the leg, whatever else the export
-   did to it (a wall joined to its rim, its faces given twice, holes beside it).
+1. The end is closed only when a surface facing along the leg's axis crosses it there
+   (:func:`closed_across`, on lines along the axis through the middles of the end's
+   rings of vertices): a cut end is open across the leg, whatever else the export did to
+   it (a wall joined to its rim, its faces given twice, holes beside it), and where the
+   leg bends off the axis the line leaves through skin facing across it.
 2. Read the girth every :data:`SPACING_MM` over the last :data:`SEARCH_MM` of that end
    (36 rays, as the coarse profile of
    :func:`app.geometry.placement.straight_reading.profile_along`).  A leg's girth
@@ -83,6 +85,15 @@ TAPER_SLOPE = 1.0
 #: a generated ankle), while past a noisy mesh's jump of CLOSING_SLOPE between two
 #: sections (its girth's noise is +-3 mm) the skin runs on to the end at the leg's girth
 CLOSED_SHARE = 0.9
+#: a face the leg's axis crosses closes the leg when its normal lies within this of the
+#: axis, degrees: a fill across a cut oblique by up to 60 degrees, a dome off its crown
+#: (the line through the end's vertices misses the crown where an oblique cut's skin pulls
+#: their middle aside: 47 degrees on a generated thigh's dome), a sole; not the skin a
+#: bending leg's axis leaves through (within 20 degrees of across the axis)
+ACROSS_DEG = 60.0
+#: the lines a closing is looked for on pass through the middles of the rings of vertices
+#: this far from the end, mm
+ENDS_RINGS_MM = (20.0, 40.0, 60.0)
 #: a closing is a sole when the sections over this much of the leg inside its rim are
 #: elongated as a foot's (median over MAX_CALF_ELONGATION), mm: a foot is that long over
 #: its heel and instep (50+ mm), while a fill over a cut that is not planar leaves mixed,
@@ -138,24 +149,30 @@ def leave_out_caps(points: np.ndarray, faces: np.ndarray | None,
 
 def closed_across(local: np.ndarray, faces: np.ndarray, centre_xy: np.ndarray, from_mm: float,
                   towards: float) -> bool:
-    """Whether a surface crosses the leg's axis between the height ``from_mm`` and the
-    end ``towards`` (+1: the high end, -1: the low end): whether the line along z through
-    ``centre_xy`` (2,) meets a face there.  local (n, 3) mm in the axis's frame (z along
-    it), faces (f, 3).  An end the scanner cut is open across the leg - however the mesh
-    was exported: its rim doubled into a wall, its faces given twice, holes beside it -
-    and a cap closes it (as a sole closes a foot)."""
+    """Whether a surface closes the leg across its axis between the height ``from_mm`` and
+    the end ``towards`` (+1: the high end, -1: the low end): whether the line along z
+    through ``centre_xy`` (2,) meets a face there that faces along the axis (its normal
+    within :data:`ACROSS_DEG` of it).  local (n, 3) mm in the axis's frame (z along it),
+    faces (f, 3).  An end the scanner cut is open across the leg - however the mesh was
+    exported: its rim doubled into a wall, its faces given twice, holes beside it - and a
+    cap closes it (as a sole closes a foot); where the leg bends off the axis near its end
+    (an ankle below a thigh's axis), the line leaves through the skin, which faces across
+    it, and that is no closing."""
     corners = local[faces]  # (f, 3, 3)
     a = corners[:, 0, :2]
     along_b, along_c, to_p = corners[:, 1, :2] - a, corners[:, 2, :2] - a, centre_xy[None, :] - a
-    det = along_b[:, 0] * along_c[:, 1] - along_c[:, 0] * along_b[:, 1]
+    det = along_b[:, 0] * along_c[:, 1] - along_c[:, 0] * along_b[:, 1]  # 2 x the face's area seen along z
     flat = det == 0  # a face seen edge-on along the axis
-    det = np.where(flat, 1.0, det)
-    u = (to_p[:, 0] * along_c[:, 1] - along_c[:, 0] * to_p[:, 1]) / det
-    v = (along_b[:, 0] * to_p[:, 1] - to_p[:, 0] * along_b[:, 1]) / det
+    safe = np.where(flat, 1.0, det)
+    u = (to_p[:, 0] * along_c[:, 1] - along_c[:, 0] * to_p[:, 1]) / safe
+    v = (along_b[:, 0] * to_p[:, 1] - to_p[:, 0] * along_b[:, 1]) / safe
     hit = ~flat & (u >= 0) & (v >= 0) & (u + v <= 1)
     z = corners[hit, 0, 2] + u[hit] * (corners[hit, 1, 2] - corners[hit, 0, 2]) \
         + v[hit] * (corners[hit, 2, 2] - corners[hit, 0, 2])
-    return bool(np.any(towards * (z - from_mm) > 0))
+    # |n . z| = the projected area over the area
+    area2 = np.linalg.norm(np.cross(corners[hit, 1] - corners[hit, 0], corners[hit, 2] - corners[hit, 0]), axis=1)
+    facing = np.abs(det[hit]) >= np.cos(np.radians(ACROSS_DEG)) * area2
+    return bool(np.any(facing & (towards * (z - from_mm) > 0)))
 
 
 def _closing_rim(girth: np.ndarray, elongation: np.ndarray) -> tuple[int, int] | None:
@@ -218,11 +235,16 @@ def closing_caps(points: np.ndarray, faces: np.ndarray | None, basis: np.ndarray
         end = high if towards > 0 else low
         inward = end - towards * (SPACING_MM / 2 + SPACING_MM * np.arange(int(SEARCH_MM / SPACING_MM)))
         heights = np.sort(inward)
-        start = float(inward[-1])  # the plane furthest in: the leg's axis passes its points' middle
+        start = float(inward[-1])  # the plane furthest in
         face_z = z[faces]  # only the faces reaching into the window matter
         near = faces[face_z.max(axis=1) >= start] if towards > 0 else faces[face_z.min(axis=1) <= start]
-        ring = np.abs(z - start) <= SPACING_MM
-        if not ring.any() or not closed_across(local, near, local[ring, :2].mean(axis=0), start, towards):
+        # lines along the axis through the middles of the rings of vertices ENDS_RINGS_MM
+        # from the end: the leg's centre near its end, where it bends off the axis (a
+        # cap's crown, an open cut's hole); an oblique cut's ring is partial and its middle
+        # off the centre, so three are tried
+        middles = [local[ring, :2].mean(axis=0) for ring in
+                   (used & (np.abs(towards * (end - z) - depth) <= SPACING_MM) for depth in ENDS_RINGS_MM) if ring.any()]
+        if not any(closed_across(local, near, middle, start, towards) for middle in middles):
             continue  # open across the leg: the scanner's cut
         sections = slice_polar(local, near, heights, RAYS, recentre=False)
         girth, elongation = sections.circumferences(), sections.elongations()
