@@ -185,3 +185,20 @@ def test_a_refusal_of_a_leg_read_without_its_caps_says_they_were_left_out(obliqu
             check_scan(load_scan(mesh.export(file_type="stl"), file_type="stl"))
         assert ("a cap a mesh tool adds to make a scan watertight" in caught.value.detail) is said
         assert str(caught.value) == caught.value.detail
+
+
+@pytest.mark.slow
+def test_an_open_leg_bending_off_its_axis_at_an_oblique_ankle_cut_has_no_cap():
+    """A generated leg scanned from the ankle to the thigh (subject 2566, the scan of
+    benchmarks/exported_meshes.py 4 61's leg 0): open at both cuts, its shin bending off
+    the thigh's axis towards the ankle.  The line along the axis through the leg's middle
+    120 mm above the ankle cut left through the skin there, the oblique cut's partial
+    sections fell like a closing, and the open scan lost its ankle to a "cap" (refused
+    no_ankle).  Lines through the end's own rings, and only faces facing along the axis,
+    find it open."""
+    from benchmarks.corpus.cases import CaseSpec, build_case
+
+    case = build_case(CaseSpec("caps-open-ankle", "ankle_to_thigh", 1626090476, 2566))
+    placement = check_scan(load_scan(case.data, file_type=case.file_type, units=case.units))
+    assert placement.caps == ()
+    assert not any("closed at its" in w for w in placement.warnings)
