@@ -14,8 +14,8 @@ The rule (:func:`closing_caps`), on a mesh, along the leg's first axis
 (:mod:`app.geometry.placement.first_axis`), at each end of the leg:
 
 1. The end is closed only when a surface facing along the leg's axis crosses it there
-   (:func:`closed_across`, on lines along the axis through the middles of the end's
-   rings of vertices): a cut end is open across the leg, whatever else the export did to
+   (:func:`closed_across`, on two of three lines along the axis through the middles of
+   the end's rings of vertices): a cut end is open across the leg, whatever else the export did to
    it (a wall joined to its rim, its faces given twice, holes beside it), and where the
    leg bends off the axis the line leaves through skin facing across it.
 2. Read the girth every :data:`SPACING_MM` over the last :data:`SEARCH_MM` of that end
@@ -240,11 +240,13 @@ def closing_caps(points: np.ndarray, faces: np.ndarray | None, basis: np.ndarray
         near = faces[face_z.max(axis=1) >= start] if towards > 0 else faces[face_z.min(axis=1) <= start]
         # lines along the axis through the middles of the rings of vertices ENDS_RINGS_MM
         # from the end: the leg's centre near its end, where it bends off the axis (a
-        # cap's crown, an open cut's hole); an oblique cut's ring is partial and its middle
-        # off the centre, so three are tried
+        # cap's crown, an open cut's hole).  A cap closes the whole section: most of the
+        # lines meet it; an oblique cut's ring is partial and its middle off the centre,
+        # where one line may meet what lies at the skin's edge (the rim joining a wall to
+        # the skin, 3 mm wide) - so three are tried and two must meet a closing
         middles = [local[ring, :2].mean(axis=0) for ring in
                    (used & (np.abs(towards * (end - z) - depth) <= SPACING_MM) for depth in ENDS_RINGS_MM) if ring.any()]
-        if not any(closed_across(local, near, middle, start, towards) for middle in middles):
+        if sum(closed_across(local, near, middle, start, towards) for middle in middles) < 2:
             continue  # open across the leg: the scanner's cut
         sections = slice_polar(local, near, heights, RAYS, recentre=False)
         girth, elongation = sections.circumferences(), sections.elongations()
