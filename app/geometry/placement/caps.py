@@ -147,32 +147,39 @@ def leave_out_caps(points: np.ndarray, faces: np.ndarray | None,
     return points[used], kept_faces
 
 
-def closed_across(local: np.ndarray, faces: np.ndarray, centre_xy: np.ndarray, from_mm: float,
-                  towards: float) -> bool:
-    """Whether a surface closes the leg across its axis between the height ``from_mm`` and
-    the end ``towards`` (+1: the high end, -1: the low end): whether the line along z
-    through ``centre_xy`` (2,) meets a face there that faces along the axis (its normal
-    within :data:`ACROSS_DEG` of it).  local (n, 3) mm in the axis's frame (z along it),
-    faces (f, 3).  An end the scanner cut is open across the leg - however the mesh was
-    exported: its rim doubled into a wall, its faces given twice, holes beside it - and a
-    cap closes it (as a sole closes a foot); where the leg bends off the axis near its end
-    (an ankle below a thigh's axis), the line leaves through the skin, which faces across
-    it, and that is no closing."""
-    corners = local[faces]  # (f, 3, 3)
-    a = corners[:, 0, :2]
-    along_b, along_c, to_p = corners[:, 1, :2] - a, corners[:, 2, :2] - a, centre_xy[None, :] - a
-    det = along_b[:, 0] * along_c[:, 1] - along_c[:, 0] * along_b[:, 1]  # 2 x the face's area seen along z
-    flat = det == 0  # a face seen edge-on along the axis
-    safe = np.where(flat, 1.0, det)
-    u = (to_p[:, 0] * along_c[:, 1] - along_c[:, 0] * to_p[:, 1]) / safe
-    v = (along_b[:, 0] * to_p[:, 1] - to_p[:, 0] * along_b[:, 1]) / safe
-    hit = ~flat & (u >= 0) & (v >= 0) & (u + v <= 1)
-    z = corners[hit, 0, 2] + u[hit] * (corners[hit, 1, 2] - corners[hit, 0, 2]) \
-        + v[hit] * (corners[hit, 2, 2] - corners[hit, 0, 2])
-    # |n . z| = the projected area over the area
-    area2 = np.linalg.norm(np.cross(corners[hit, 1] - corners[hit, 0], corners[hit, 2] - corners[hit, 0]), axis=1)
-    facing = np.abs(det[hit]) >= np.cos(np.radians(ACROSS_DEG)) * area2
-    return bool(np.any(facing & (towards * (z - from_mm) > 0)))
+def closed_across(local: np.ndarray, faces: np.ndarray, middles: np.ndarray, from_mm: float,
+                  towards: float) -> np.ndarray:
+    """(L,) bool: whether a surface closes the leg across its axis between the height
+    ``from_mm`` and the end ``towards`` (+1: the high end, -1: the low end), on each of the
+    lines along z through ``middles`` (L, 2): whether the line meets a face there that
+    faces along the axis (its normal within :data:`ACROSS_DEG` of it).  local (n, 3) mm in
+    the axis's frame (z along it), faces (f, 3).  An end the scanner cut is open across
+    the leg - however the mesh was exported: its rim doubled into a wall, its faces given
+    twice, holes beside it - and a cap closes it (as a sole closes a foot); where the leg
+    bends off the axis near its end (an ankle below a thigh's axis), a line leaves through
+    the skin, which faces across it, and that is no closing."""
+    xy = [local[faces[:, k], :2] for k in range(3)]  # the corners seen along z, (f, 2) each
+    low = np.minimum(np.minimum(xy[0], xy[1]), xy[2])  # the faces' boxes seen along z
+    high = np.maximum(np.maximum(xy[0], xy[1]), xy[2])
+    out = np.zeros(len(middles), dtype=bool)
+    for line, middle in enumerate(np.asarray(middles, dtype=np.float64).reshape(-1, 2)):
+        inside = (low[:, 0] <= middle[0]) & (middle[0] <= high[:, 0]) & (low[:, 1] <= middle[1]) & (middle[1] <= high[:, 1])
+        near = local[faces[inside]]  # (m, 3, 3): the faces whose box the line passes
+        a = near[:, 0, :2]
+        along_b, along_c, to_p = near[:, 1, :2] - a, near[:, 2, :2] - a, middle[None, :] - a
+        det = along_b[:, 0] * along_c[:, 1] - along_c[:, 0] * along_b[:, 1]  # 2 x the face's area seen along z
+        flat = det == 0  # a face seen edge-on along the axis
+        safe = np.where(flat, 1.0, det)
+        u = (to_p[:, 0] * along_c[:, 1] - along_c[:, 0] * to_p[:, 1]) / safe
+        v = (along_b[:, 0] * to_p[:, 1] - to_p[:, 0] * along_b[:, 1]) / safe
+        hit = ~flat & (u >= 0) & (v >= 0) & (u + v <= 1)
+        met = near[hit]
+        z = met[:, 0, 2] + u[hit] * (met[:, 1, 2] - met[:, 0, 2]) + v[hit] * (met[:, 2, 2] - met[:, 0, 2])
+        # |n . z| = the area seen along z over the area
+        area2 = np.linalg.norm(np.cross(met[:, 1] - met[:, 0], met[:, 2] - met[:, 0]), axis=1)
+        facing = np.abs(det[hit]) >= np.cos(np.radians(ACROSS_DEG)) * area2
+        out[line] = bool(np.any(facing & (towards * (z - from_mm) > 0)))
+    return out
 
 
 def _closing_rim(girth: np.ndarray, elongation: np.ndarray) -> tuple[int, int] | None:
@@ -230,14 +237,16 @@ def closing_caps(points: np.ndarray, faces: np.ndarray | None, basis: np.ndarray
     low, high = float(z_used.min()), float(z_used.max())
     if high - low < 4 * SEARCH_MM:  # too short to be a leg: the caller refuses it
         return ()
+    corner_z = [z[faces[:, k]] for k in range(3)]
+    face_top = np.maximum(np.maximum(corner_z[0], corner_z[1]), corner_z[2])
+    face_bottom = np.minimum(np.minimum(corner_z[0], corner_z[1]), corner_z[2])
     caps = []
     for towards in (-1.0, 1.0):
         end = high if towards > 0 else low
         inward = end - towards * (SPACING_MM / 2 + SPACING_MM * np.arange(int(SEARCH_MM / SPACING_MM)))
         heights = np.sort(inward)
         start = float(inward[-1])  # the plane furthest in
-        face_z = z[faces]  # only the faces reaching into the window matter
-        near = faces[face_z.max(axis=1) >= start] if towards > 0 else faces[face_z.min(axis=1) <= start]
+        near = faces[face_top >= start] if towards > 0 else faces[face_bottom <= start]  # the faces reaching into it
         # lines along the axis through the middles of the rings of vertices ENDS_RINGS_MM
         # from the end: the leg's centre near its end, where it bends off the axis (a
         # cap's crown, an open cut's hole).  A cap closes the whole section: most of the
@@ -246,7 +255,7 @@ def closing_caps(points: np.ndarray, faces: np.ndarray | None, basis: np.ndarray
         # the skin, 3 mm wide) - so three are tried and two must meet a closing
         middles = [local[ring, :2].mean(axis=0) for ring in
                    (used & (np.abs(towards * (end - z) - depth) <= SPACING_MM) for depth in ENDS_RINGS_MM) if ring.any()]
-        if sum(closed_across(local, near, middle, start, towards) for middle in middles) < 2:
+        if closed_across(local, near, np.array(middles).reshape(-1, 2), start, towards).sum() < 2:
             continue  # open across the leg: the scanner's cut
         sections = slice_polar(local, near, heights, RAYS, recentre=False)
         girth, elongation = sections.circumferences(), sections.elongations()

@@ -60,7 +60,7 @@ def test_a_capped_end_is_closed_across_the_axis_and_an_exported_open_end_is_not(
 
     def closed(mesh: trimesh.Trimesh, towards: float) -> bool:
         local = (np.asarray(mesh.vertices) - centre) @ basis.T
-        return closed_across(local, np.asarray(mesh.faces), np.zeros(2), 0.0, towards)
+        return bool(closed_across(local, np.asarray(mesh.faces), np.zeros((1, 2)), 0.0, towards)[0])
 
     capped = _merged(exports.capped(oblique_tube, style))
     assert closed(capped, 1.0) and closed(capped, -1.0)
