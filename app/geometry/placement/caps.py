@@ -94,6 +94,10 @@ ACROSS_DEG = 60.0
 #: the lines a closing is looked for on pass through the middles of the rings of vertices
 #: this far from the end, mm
 ENDS_RINGS_MM = (20.0, 40.0, 60.0)
+#: a closing reaches the end: its outermost section lies within this of the end, mm (a
+#: cap's crown, an oblique fill's tip are small closed sections; a cut end seen obliquely
+#: - the thigh of a seated leg along the leg's diagonal - has no section for 28 mm)
+CLOSED_TO_END_MM = 6.0
 #: a closing is a sole when the sections over this much of the leg inside its rim are
 #: elongated as a foot's (median over MAX_CALF_ELONGATION), mm: a foot is that long over
 #: its heel and instep (50+ mm), while a fill over a cut that is not planar leaves mixed,
@@ -200,8 +204,8 @@ def _closing_rim(girth: np.ndarray, elongation: np.ndarray) -> tuple[int, int] |
     mixed there, elongated and partly seen; the foot is told on the leg inside the rim
     (FOOT_SPAN_MM)."""
     seen = np.flatnonzero(np.isfinite(girth) & (girth > 0))[::-1]  # from the inside out
-    if len(seen) < 3:
-        return None
+    if len(seen) < 3 or seen[-1] * SPACING_MM > CLOSED_TO_END_MM:
+        return None  # the sections stop short of the end: it is open there (a cut), not closed
     g = girth[seen]
     falling = (g[:-1] - g[1:]) / (np.abs(np.diff(seen)) * SPACING_MM)  # towards the end, per mm
     beyond_max = np.maximum.accumulate(g[::-1])[::-1]  # the widest section from each one out
