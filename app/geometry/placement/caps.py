@@ -28,7 +28,8 @@ The rule (:func:`closing_caps`), on a mesh, along the leg's first axis
    (11.7 at 15 degrees); a dome h high over a radius r drops it at 2 pi r tan(phi) / h at
    the angle phi up its profile (an ellipse's quarter).  Read from the leg towards the
    end, the first fall steeper than :data:`CLOSING_SLOPE` past which no section is wider
-   and the last is under :data:`CLOSED_SHARE` of the girth before it is the cap's; the
+   and the last - within :data:`CLOSED_TO_END_MM` of the end: a closing reaches it - is
+   under :data:`CLOSED_SHARE` of the girth before it is the cap's; the
    cap goes on inwards while the girth still falls towards the end faster than
    :data:`TAPER_SLOPE`, for at most as long again (the rim of a dome leans in gently).
 3. There is the rim.  A closing whose leg inside the rim is elongated as a foot's
