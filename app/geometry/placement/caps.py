@@ -138,18 +138,24 @@ def leave_out_caps(points: np.ndarray, faces: np.ndarray | None,
         return points, faces
     keep = np.ones(len(points), dtype=bool)
     fill = np.zeros(len(faces), dtype=bool)
+    corners = points[faces] if any(cap.flat for cap in caps) else None
     for cap in caps:
         beyond = (points - cap.point) @ cap.normal
         keep &= beyond <= (FLAT_MM if cap.flat else 0.0)
-        if cap.flat:
-            corners = points[faces]
-            facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-            lengths = np.maximum(np.linalg.norm(facing, axis=1), 1e-300)
-            along = np.abs(facing @ cap.normal) / lengths > np.cos(np.radians(FILL_LEAN_DEG))
-            fill |= along & np.all(np.abs(beyond[faces]) <= FLAT_MM, axis=1)
+        if corners is not None and cap.flat:
+            fill |= _facing_along(corners, cap.normal, FILL_LEAN_DEG)[1] & np.all(np.abs(beyond[faces]) <= FLAT_MM, axis=1)
     kept_faces = faces[~fill & keep[faces].all(axis=1)]
     used, kept_faces = used_vertices(kept_faces, len(points))
     return points[used], kept_faces
+
+
+def _facing_along(corners: np.ndarray, direction: np.ndarray, within_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """(f,) twice the area of each triangle ``corners`` (f, 3, 3), and (f,) bool whether its
+    normal lies within ``within_deg`` of the unit ``direction`` (3,) either way round (a
+    triangle of no area has no normal: False)."""
+    facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # (f, 3), 2 x area
+    area2 = np.linalg.norm(facing, axis=1)
+    return area2, (area2 > 0) & (np.abs(facing @ direction) >= np.cos(np.radians(within_deg)) * area2)
 
 
 def closed_across(local: np.ndarray, faces: np.ndarray, middles: np.ndarray, from_mm: float,
@@ -180,9 +186,7 @@ def closed_across(local: np.ndarray, faces: np.ndarray, middles: np.ndarray, fro
         hit = ~flat & (u >= 0) & (v >= 0) & (u + v <= 1)
         met = near[hit]
         z = met[:, 0, 2] + u[hit] * (met[:, 1, 2] - met[:, 0, 2]) + v[hit] * (met[:, 2, 2] - met[:, 0, 2])
-        # |n . z| = the area seen along z over the area
-        area2 = np.linalg.norm(np.cross(met[:, 1] - met[:, 0], met[:, 2] - met[:, 0]), axis=1)
-        facing = np.abs(det[hit]) >= np.cos(np.radians(ACROSS_DEG)) * area2
+        facing = _facing_along(met, np.array([0.0, 0.0, 1.0]), ACROSS_DEG)[1]
         out[line] = bool(np.any(facing & (towards * (z - from_mm) > 0)))
     return out
 
@@ -198,8 +202,8 @@ def _closing_rim(girth: np.ndarray, elongation: np.ndarray) -> tuple[int, int] |
     steeper fall is the closing when the leg closes beyond it - no section further out is
     wider than the rim, and the outermost is under CLOSED_SHARE of the rim's girth (a
     noisy mesh's girth jumps by more than CLOSING_SLOPE between two sections, but its
-    skin runs on to the end at the leg's girth).  The rim is stepped back over the sections before it that
-    fall faster than TAPER_SLOPE, at most as far as the closing reaches beyond it.  A
+    skin runs on to the end at the leg's girth).  The rim is stepped back over the
+    sections before it that fall faster than TAPER_SLOPE, at most as far as the closing reaches beyond it.  A
     section's own shape between the rim and the end, partial or not, is not asked: a fill
     over a cut that is not planar (round the crotch) leaves sections of fill and skin
     mixed there, elongated and partly seen; the foot is told on the leg inside the rim
@@ -287,9 +291,8 @@ def _flat_fill(points: np.ndarray, faces: np.ndarray, past_rim: np.ndarray, outw
     rim, or None when the cap there is no flat fill (a dome).  ``past_rim`` (n,) bool the
     points past the rim's plane; ``outwards`` (3,) the axis towards the end."""
     corners = points[faces]
-    facing = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])  # (f, 3), 2 x area
-    area = np.linalg.norm(facing, axis=1) / 2
-    along = np.abs(facing @ outwards) > np.cos(np.radians(FILL_LEAN_DEG)) * 2 * area
+    area2, along = _facing_along(corners, outwards, FILL_LEAN_DEG)
+    area = area2 / 2
     candidate = along & past_rim[faces].all(axis=1)
     rim_area = rim_girth_mm**2 / (4 * np.pi)  # a circle of the rim's girth
     if area[candidate].sum() < FILL_AREA_SHARE * rim_area:
